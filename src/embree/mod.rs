@@ -1,0 +1,568 @@
+//! The safe wrapper around Intel Embree: the only module of ember with `unsafe`.
+//!
+//! It exposes a [`Device`] (with an error callback whose reports become
+//! [`EmbreeError`]s and a memory monitor that measures and can cap what Embree
+//! allocates), and a committed triangle [`Scene`] that answers single rays and 8-wide
+//! packets from any number of threads. The differences between Embree 3 and Embree 4
+//! (intersection contexts versus argument structs) stay inside this file, selected by
+//! the `embree3`/`embree4` cfg that build.rs emits for the installed headers.
+
+mod sys;
+
+use std::ffi::{CStr, CString};
+use std::os::raw::{c_char, c_void};
+use std::ptr;
+use std::sync::atomic::{AtomicI64, Ordering};
+use std::sync::{Arc, Mutex};
+
+use glam::Vec3;
+
+use crate::accel::{Hit, Ray};
+
+/// Embree's "no geometry" id, written into `geomID` before a query.
+const INVALID_ID: u32 = u32::MAX;
+
+/// An error Embree reported, with its code and message.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("Embree {kind}: {message}")]
+pub struct EmbreeError {
+    pub kind: EmbreeErrorKind,
+    pub message: String,
+}
+
+/// Embree's error codes (`RTCError`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum EmbreeErrorKind {
+    Unknown,
+    InvalidArgument,
+    InvalidOperation,
+    OutOfMemory,
+    UnsupportedCpu,
+    Cancelled,
+}
+
+impl std::fmt::Display for EmbreeErrorKind {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            EmbreeErrorKind::Unknown => "error",
+            EmbreeErrorKind::InvalidArgument => "invalid argument",
+            EmbreeErrorKind::InvalidOperation => "invalid operation",
+            EmbreeErrorKind::OutOfMemory => "out of memory",
+            EmbreeErrorKind::UnsupportedCpu => "unsupported CPU",
+            EmbreeErrorKind::Cancelled => "operation cancelled",
+        })
+    }
+}
+
+impl EmbreeErrorKind {
+    fn from_code(code: sys::RTCError) -> Option<Self> {
+        Some(match code {
+            sys::RTC_ERROR_NONE => return None,
+            sys::RTC_ERROR_INVALID_ARGUMENT => EmbreeErrorKind::InvalidArgument,
+            sys::RTC_ERROR_INVALID_OPERATION => EmbreeErrorKind::InvalidOperation,
+            sys::RTC_ERROR_OUT_OF_MEMORY => EmbreeErrorKind::OutOfMemory,
+            sys::RTC_ERROR_UNSUPPORTED_CPU => EmbreeErrorKind::UnsupportedCpu,
+            sys::RTC_ERROR_CANCELLED => EmbreeErrorKind::Cancelled,
+            _ => EmbreeErrorKind::Unknown,
+        })
+    }
+}
+
+/// Build quality of the BVH Embree builds (`rtcSetSceneBuildQuality`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum BuildQuality {
+    Low,
+    #[default]
+    Medium,
+    High,
+}
+
+impl BuildQuality {
+    fn raw(self) -> sys::RTCBuildQuality {
+        match self {
+            BuildQuality::Low => sys::RTC_BUILD_QUALITY_LOW,
+            BuildQuality::Medium => sys::RTC_BUILD_QUALITY_MEDIUM,
+            BuildQuality::High => sys::RTC_BUILD_QUALITY_HIGH,
+        }
+    }
+}
+
+/// What `ember info` reports about the Embree library in use.
+#[derive(Debug, Clone)]
+pub struct DeviceInfo {
+    /// Version of the loaded library, e.g. "3.13.5".
+    pub version: String,
+    /// Version of the headers the bindings were generated from.
+    pub header_version: String,
+    /// The widest packet the library runs natively (4, 8 or 16): SSE, AVX/AVX2 or AVX-512.
+    pub native_packet_width: u32,
+    /// "TBB", "internal" or "PPL".
+    pub tasking_system: &'static str,
+    /// The device configuration string it was created with.
+    pub config: String,
+}
+
+/// State the C callbacks write into; owned by the device and outliving it.
+struct Callbacks {
+    /// The first error reported since it was last taken.
+    error: Mutex<Option<EmbreeError>>,
+    /// Bytes Embree currently holds, as reported to the memory monitor.
+    bytes_in_use: AtomicI64,
+    /// Allocation cap in bytes; past it the monitor refuses and Embree reports
+    /// out-of-memory. `i64::MAX` when unlimited.
+    byte_limit: AtomicI64,
+}
+
+struct DeviceHandle {
+    raw: sys::RTCDevice,
+    callbacks: Box<Callbacks>,
+    config: String,
+}
+
+// SAFETY: an RTCDevice may be used from any thread (Embree's API is thread-safe for
+// device-level calls), and `Callbacks` is only touched through a Mutex and atomics.
+unsafe impl Send for DeviceHandle {}
+// SAFETY: as above.
+unsafe impl Sync for DeviceHandle {}
+
+impl Drop for DeviceHandle {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewDevice and this is the last reference we hold;
+        // scenes keep the handle alive through an Arc, so none outlives the device.
+        unsafe { sys::rtcReleaseDevice(self.raw) };
+    }
+}
+
+/// An Embree device. Cheap to clone; scenes keep their device alive.
+#[derive(Clone)]
+pub struct Device {
+    handle: Arc<DeviceHandle>,
+}
+
+unsafe extern "C" fn on_error(user: *mut c_void, code: sys::RTCError, message: *const c_char) {
+    // SAFETY: `user` is the `Callbacks` box registered with this device, which lives as
+    // long as the device; `message` is null or a NUL-terminated string from Embree.
+    let callbacks = unsafe { &*(user as *const Callbacks) };
+    let message = if message.is_null() {
+        String::from("(no message)")
+    } else {
+        // SAFETY: non-null and NUL-terminated per Embree's API contract.
+        unsafe { CStr::from_ptr(message) }
+            .to_string_lossy()
+            .into_owned()
+    };
+    let kind = EmbreeErrorKind::from_code(code).unwrap_or(EmbreeErrorKind::Unknown);
+    if let Ok(mut slot) = callbacks.error.lock() {
+        slot.get_or_insert(EmbreeError { kind, message });
+    }
+}
+
+unsafe extern "C" fn on_memory(user: *mut c_void, bytes: isize, post: bool) -> bool {
+    // SAFETY: `user` is the `Callbacks` box registered with this device (see on_error).
+    let callbacks = unsafe { &*(user as *const Callbacks) };
+    let bytes = bytes as i64;
+    let now = callbacks.bytes_in_use.fetch_add(bytes, Ordering::Relaxed) + bytes;
+    // Only a report made before the allocation (`post == false`) can refuse it.
+    if bytes > 0 && !post && now > callbacks.byte_limit.load(Ordering::Relaxed) {
+        // Refusing makes Embree fail the allocation with RTC_ERROR_OUT_OF_MEMORY; it
+        // does not report the matching release, so undo our count here.
+        callbacks.bytes_in_use.fetch_sub(bytes, Ordering::Relaxed);
+        return false;
+    }
+    true
+}
+
+impl Device {
+    /// Creates a device with an Embree configuration string (`""` for defaults, or e.g.
+    /// `"threads=2"`). A string Embree rejects is an error, not an abort.
+    pub fn new(config: &str) -> Result<Device, EmbreeError> {
+        let c_config = CString::new(config).map_err(|_| EmbreeError {
+            kind: EmbreeErrorKind::InvalidArgument,
+            message: "device configuration contains a NUL byte".into(),
+        })?;
+        // SAFETY: `c_config` is a valid NUL-terminated string for the duration of the call.
+        let raw = unsafe { sys::rtcNewDevice(c_config.as_ptr()) };
+        if raw.is_null() {
+            // SAFETY: a null device asks for the error of the last failed device creation.
+            let code = unsafe { sys::rtcGetDeviceError(ptr::null_mut()) };
+            return Err(EmbreeError {
+                kind: EmbreeErrorKind::from_code(code).unwrap_or(EmbreeErrorKind::Unknown),
+                message: format!("cannot create a device with configuration {config:?}"),
+            });
+        }
+        let callbacks = Box::new(Callbacks {
+            error: Mutex::new(None),
+            bytes_in_use: AtomicI64::new(0),
+            byte_limit: AtomicI64::new(i64::MAX),
+        });
+        let user = &*callbacks as *const Callbacks as *mut c_void;
+        // SAFETY: `raw` is a live device; `user` points into a Box that the device
+        // handle owns and drops only after releasing the device.
+        unsafe {
+            sys::rtcSetDeviceErrorFunction(raw, Some(on_error), user);
+            sys::rtcSetDeviceMemoryMonitorFunction(raw, Some(on_memory), user);
+        }
+        Ok(Device {
+            handle: Arc::new(DeviceHandle {
+                raw,
+                callbacks,
+                config: config.to_owned(),
+            }),
+        })
+    }
+
+    /// Takes the first error reported since the last call, if any.
+    fn take_error(&self) -> Result<(), EmbreeError> {
+        let mut slot = self
+            .handle
+            .callbacks
+            .error
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
+        match slot.take() {
+            Some(e) => Err(e),
+            None => Ok(()),
+        }
+    }
+
+    fn property(&self, prop: sys::RTCDeviceProperty) -> isize {
+        // SAFETY: a live device and a property id from the headers it was built with.
+        unsafe { sys::rtcGetDeviceProperty(self.handle.raw, prop) as isize }
+    }
+
+    /// Bytes Embree currently holds on this device (all scenes), from its memory monitor.
+    pub fn bytes_in_use(&self) -> usize {
+        self.handle
+            .callbacks
+            .bytes_in_use
+            .load(Ordering::Relaxed)
+            .max(0) as usize
+    }
+
+    /// Caps what Embree may allocate on this device; a build that needs more fails
+    /// with an out-of-memory error. `None` lifts the cap.
+    pub fn set_memory_limit(&self, bytes: Option<usize>) {
+        let limit = bytes.map_or(i64::MAX, |b| b.min(i64::MAX as usize) as i64);
+        self.handle
+            .callbacks
+            .byte_limit
+            .store(limit, Ordering::Relaxed);
+    }
+
+    pub fn info(&self) -> DeviceInfo {
+        let v = self.property(sys::RTC_DEVICE_PROPERTY_VERSION);
+        let version = format!("{}.{}.{}", v / 10000, (v / 100) % 100, v % 100);
+        let h = sys::RTC_VERSION as i64;
+        let header_version = format!("{}.{}.{}", h / 10000, (h / 100) % 100, h % 100);
+        let native_packet_width =
+            if self.property(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED) != 0 {
+                16
+            } else if self.property(sys::RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED) != 0 {
+                8
+            } else {
+                4
+            };
+        let tasking_system = match self.property(sys::RTC_DEVICE_PROPERTY_TASKING_SYSTEM) {
+            0 => "internal",
+            1 => "TBB",
+            2 => "PPL",
+            _ => "unknown",
+        };
+        DeviceInfo {
+            version,
+            header_version,
+            native_packet_width,
+            tasking_system,
+            config: self.handle.config.clone(),
+        }
+    }
+
+    /// Builds and commits a scene of one triangle mesh. Triangle `i` of `triangles`
+    /// is primitive `i` in every hit.
+    pub fn build_triangle_scene(
+        &self,
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        quality: BuildQuality,
+    ) -> Result<Scene, EmbreeError> {
+        let invalid = |message: String| EmbreeError {
+            kind: EmbreeErrorKind::InvalidArgument,
+            message,
+        };
+        if let Some(bad) = triangles
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= vertices.len())
+        {
+            return Err(invalid(format!(
+                "vertex index {bad} out of range for {} vertices",
+                vertices.len()
+            )));
+        }
+        let _ = self.take_error();
+        let device = self.handle.raw;
+        // SAFETY: `device` is live. Every handle created here is released on all paths:
+        // the geometry right after attaching (the scene retains it), the scene by
+        // `Scene::drop` (or below on error).
+        unsafe {
+            let raw_scene = sys::rtcNewScene(device);
+            if raw_scene.is_null() {
+                return Err(self
+                    .take_error()
+                    .err()
+                    .unwrap_or_else(|| invalid("cannot create a scene".into())));
+            }
+            let mut scene = Scene {
+                raw: raw_scene,
+                device: self.clone(),
+                bytes: 0,
+            };
+            sys::rtcSetSceneBuildQuality(raw_scene, quality.raw());
+            let before = self.bytes_in_use();
+
+            let geometry = sys::rtcNewGeometry(device, sys::RTC_GEOMETRY_TYPE_TRIANGLE);
+            if geometry.is_null() {
+                self.take_error()?;
+                return Err(invalid("cannot create a triangle geometry".into()));
+            }
+            sys::rtcSetGeometryBuildQuality(geometry, quality.raw());
+            // Embree allocates these buffers itself, with the tail padding its 16-byte
+            // vertex loads need.
+            let vertex_buffer = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                0,
+                sys::RTC_FORMAT_FLOAT3,
+                12,
+                vertices.len(),
+            ) as *mut [f32; 3];
+            let index_buffer = sys::rtcSetNewGeometryBuffer(
+                geometry,
+                sys::RTC_BUFFER_TYPE_INDEX,
+                0,
+                sys::RTC_FORMAT_UINT3,
+                12,
+                triangles.len(),
+            ) as *mut [u32; 3];
+            if vertex_buffer.is_null() || index_buffer.is_null() {
+                sys::rtcReleaseGeometry(geometry);
+                self.take_error()?;
+                return Err(invalid("cannot allocate the geometry buffers".into()));
+            }
+            for (i, v) in vertices.iter().enumerate() {
+                vertex_buffer.add(i).write(v.to_array());
+            }
+            ptr::copy_nonoverlapping(triangles.as_ptr(), index_buffer, triangles.len());
+            sys::rtcCommitGeometry(geometry);
+            sys::rtcAttachGeometryByID(raw_scene, geometry, 0);
+            sys::rtcReleaseGeometry(geometry);
+            self.take_error()?;
+            sys::rtcCommitScene(raw_scene);
+            self.take_error()?;
+            scene.bytes = self.bytes_in_use().saturating_sub(before);
+            Ok(scene)
+        }
+    }
+}
+
+/// A committed Embree scene of one triangle mesh, ready for ray queries from any thread.
+pub struct Scene {
+    raw: sys::RTCScene,
+    device: Device,
+    /// Bytes Embree allocated while building it (BVH, triangle copies, buffers).
+    bytes: usize,
+}
+
+// SAFETY: a committed RTCScene is immutable and Embree documents that it may be
+// traversed from many threads at once; nothing here mutates it after commit.
+unsafe impl Send for Scene {}
+// SAFETY: as above.
+unsafe impl Sync for Scene {}
+
+impl Drop for Scene {
+    fn drop(&mut self) {
+        // SAFETY: `raw` came from rtcNewScene on `self.device`, which is still alive.
+        unsafe { sys::rtcReleaseScene(self.raw) };
+    }
+}
+
+fn raw_ray(ray: &Ray) -> sys::RTCRay {
+    sys::RTCRay {
+        org_x: ray.origin.x,
+        org_y: ray.origin.y,
+        org_z: ray.origin.z,
+        tnear: ray.tmin,
+        dir_x: ray.dir.x,
+        dir_y: ray.dir.y,
+        dir_z: ray.dir.z,
+        time: 0.0,
+        tfar: ray.tmax,
+        mask: u32::MAX,
+        id: 0,
+        flags: 0,
+    }
+}
+
+fn empty_hit() -> sys::RTCHit {
+    // SAFETY: RTCHit is plain old data (floats and integers); all-zero is valid.
+    let mut hit: sys::RTCHit = unsafe { std::mem::zeroed() };
+    hit.geomID = INVALID_ID;
+    hit.primID = INVALID_ID;
+    hit
+}
+
+/// The per-query argument Embree 3 wants: an intersection context.
+#[cfg(embree3)]
+fn context(coherent: bool) -> sys::RTCIntersectContext {
+    // SAFETY: plain old data; the fields that matter are set right below, as the
+    // header's inline rtcInitIntersectContext (not exported, so not bound) does.
+    let mut ctx: sys::RTCIntersectContext = unsafe { std::mem::zeroed() };
+    ctx.flags = if coherent {
+        sys::RTC_INTERSECT_CONTEXT_FLAG_COHERENT
+    } else {
+        sys::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT
+    };
+    ctx.filter = None;
+    ctx.instID = [INVALID_ID; sys::RTC_MAX_INSTANCE_LEVEL_COUNT as usize];
+    ctx
+}
+
+/// Packet of 8 rays laid out as Embree wants it (32-byte aligned).
+pub const PACKET_WIDTH: usize = 8;
+
+impl Scene {
+    /// Bytes Embree allocated to build this scene.
+    pub fn memory_bytes(&self) -> usize {
+        self.bytes
+    }
+
+    pub fn device(&self) -> &Device {
+        &self.device
+    }
+
+    /// Nearest hit of one ray.
+    #[inline]
+    pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let mut rayhit = sys::RTCRayHit {
+            ray: raw_ray(ray),
+            hit: empty_hit(),
+        };
+        #[cfg(embree3)]
+        {
+            let mut ctx = context(false);
+            // SAFETY: the scene is committed; `ctx` and `rayhit` are valid, properly
+            // aligned (bindgen keeps RTCRayHit's 16-byte alignment) and live for the call.
+            unsafe { sys::rtcIntersect1(self.raw, &mut ctx, &mut rayhit) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as above; a null argument struct means Embree's defaults.
+            unsafe { sys::rtcIntersect1(self.raw, &mut rayhit, ptr::null_mut()) };
+        }
+        (rayhit.hit.geomID != INVALID_ID).then_some(Hit {
+            t: rayhit.ray.tfar,
+            prim: rayhit.hit.primID,
+            u: rayhit.hit.u,
+            v: rayhit.hit.v,
+        })
+    }
+
+    /// Whether anything blocks the ray segment.
+    #[inline]
+    pub fn occluded(&self, ray: &Ray) -> bool {
+        let mut raw = raw_ray(ray);
+        #[cfg(embree3)]
+        {
+            let mut ctx = context(false);
+            // SAFETY: committed scene; `ctx` and `raw` are valid for the call.
+            unsafe { sys::rtcOccluded1(self.raw, &mut ctx, &mut raw) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: committed scene; `raw` is valid; null arguments mean defaults.
+            unsafe { sys::rtcOccluded1(self.raw, &mut raw, ptr::null_mut()) };
+        }
+        // Embree marks an occluded ray by setting tfar to -inf.
+        raw.tfar < 0.0 && raw.tfar.is_infinite()
+    }
+
+    /// Nearest hits of up to 8 rays as one packet (`rtcIntersect8`). `coherent` hints
+    /// that the rays are similar (camera rays), which Embree can exploit.
+    pub fn intersect8(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherent: bool) {
+        assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
+        let mut valid = [0i32; PACKET_WIDTH];
+        // SAFETY: RTCRayHit8 is plain old data; all-zero is valid and every active lane
+        // is filled below.
+        let mut packet: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
+        for (lane, ray) in rays.iter().enumerate() {
+            valid[lane] = -1;
+            let (r, h) = (&mut packet.ray, &mut packet.hit);
+            r.org_x[lane] = ray.origin.x;
+            r.org_y[lane] = ray.origin.y;
+            r.org_z[lane] = ray.origin.z;
+            r.dir_x[lane] = ray.dir.x;
+            r.dir_y[lane] = ray.dir.y;
+            r.dir_z[lane] = ray.dir.z;
+            r.tnear[lane] = ray.tmin;
+            r.tfar[lane] = ray.tmax;
+            r.mask[lane] = u32::MAX;
+            h.geomID[lane] = INVALID_ID;
+            h.primID[lane] = INVALID_ID;
+        }
+        #[cfg(embree3)]
+        {
+            let mut ctx = context(coherent);
+            // SAFETY: committed scene; `valid` has 8 lanes; `packet` is 32-byte aligned
+            // (bindgen keeps RTCRayHit8's alignment) and lives for the call.
+            unsafe { sys::rtcIntersect8(valid.as_ptr(), self.raw, &mut ctx, &mut packet) };
+        }
+        #[cfg(embree4)]
+        {
+            let _ = coherent;
+            // SAFETY: as above; null arguments mean defaults.
+            unsafe { sys::rtcIntersect8(valid.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
+        }
+        for (lane, hit) in hits.iter_mut().take(rays.len()).enumerate() {
+            *hit = (packet.hit.geomID[lane] != INVALID_ID).then_some(Hit {
+                t: packet.ray.tfar[lane],
+                prim: packet.hit.primID[lane],
+                u: packet.hit.u[lane],
+                v: packet.hit.v[lane],
+            });
+        }
+    }
+
+    /// Occlusion of up to 8 rays as one packet (`rtcOccluded8`).
+    pub fn occluded8(&self, rays: &[Ray], occluded: &mut [bool]) {
+        assert!(rays.len() <= PACKET_WIDTH && occluded.len() >= rays.len());
+        let mut valid = [0i32; PACKET_WIDTH];
+        // SAFETY: RTCRay8 is plain old data; active lanes are filled below.
+        let mut packet: sys::RTCRay8 = unsafe { std::mem::zeroed() };
+        for (lane, ray) in rays.iter().enumerate() {
+            valid[lane] = -1;
+            packet.org_x[lane] = ray.origin.x;
+            packet.org_y[lane] = ray.origin.y;
+            packet.org_z[lane] = ray.origin.z;
+            packet.dir_x[lane] = ray.dir.x;
+            packet.dir_y[lane] = ray.dir.y;
+            packet.dir_z[lane] = ray.dir.z;
+            packet.tnear[lane] = ray.tmin;
+            packet.tfar[lane] = ray.tmax;
+            packet.mask[lane] = u32::MAX;
+        }
+        #[cfg(embree3)]
+        {
+            let mut ctx = context(false);
+            // SAFETY: committed scene; 8 valid lanes; aligned packet alive for the call.
+            unsafe { sys::rtcOccluded8(valid.as_ptr(), self.raw, &mut ctx, &mut packet) };
+        }
+        #[cfg(embree4)]
+        {
+            // SAFETY: as above; null arguments mean defaults.
+            unsafe { sys::rtcOccluded8(valid.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
+        }
+        for (lane, o) in occluded.iter_mut().take(rays.len()).enumerate() {
+            *o = packet.tfar[lane] == f32::NEG_INFINITY;
+        }
+    }
+}

@@ -1,0 +1,15 @@
+//! ember: a physically based CPU path tracer for OBJ scenes, with Intel Embree (through
+//! FFI) or a native Rust BVH answering the ray queries.
+//!
+//! Data flows one way: [`scene`] loads an OBJ into an immutable [`scene::Scene`]; an
+//! [`accel::Accel`] (Embree, or the native BVH) answers ray queries against its
+//! triangles; the [`integrator`] estimates radiance per camera sample; [`render`] spreads
+//! the image over threads into a [`film::Film`], which is written as PNG, EXR or HDR.
+
+pub mod accel;
+pub mod embree;
+pub mod film;
+pub mod integrator;
+pub mod render;
+pub mod sampling;
+pub mod scene;

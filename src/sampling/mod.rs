@@ -1,0 +1,43 @@
+//! Random numbers, local frames and the probability densities the integrators sample.
+
+mod onb;
+mod rng;
+
+pub use onb::Onb;
+pub use rng::Rng;
+
+use glam::Vec3;
+use std::f32::consts::{FRAC_1_PI, PI};
+
+/// A cosine-weighted direction in the local frame (z up): density `cos θ / π`.
+/// `u1`, `u2` are uniform in `[0, 1)`.
+#[inline]
+pub fn cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
+    let phi = 2.0 * PI * u1;
+    let r = u2.sqrt();
+    let z = (1.0 - u2).max(0.0).sqrt();
+    Vec3::new(phi.cos() * r, phi.sin() * r, z)
+}
+
+/// Density of [`cosine_hemisphere`] for a direction whose cosine with the normal is `cos_theta`.
+#[inline]
+pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
+    cos_theta.max(0.0) * FRAC_1_PI
+}
+
+/// A uniformly distributed direction on the unit sphere: density `1 / 4π`.
+#[inline]
+pub fn uniform_sphere(u1: f32, u2: f32) -> Vec3 {
+    let z = 1.0 - 2.0 * u1;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * PI * u2;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// A uniform point on a triangle, as barycentrics `(b1, b2)` of its second and third
+/// vertex (the square-root parameterisation).
+#[inline]
+pub fn uniform_triangle(u1: f32, u2: f32) -> (f32, f32) {
+    let s = u1.sqrt();
+    (s * (1.0 - u2), s * u2)
+}

@@ -1,0 +1,102 @@
+//! The pinhole camera: eye, look-at point, up vector and vertical field of view.
+
+use glam::Vec3;
+
+use crate::accel::Ray;
+
+/// Where the camera is and what it sees. Row 0 of the image is the top; image-right is
+/// the camera's +x (`forward × up`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSettings {
+    pub eye: Vec3,
+    pub look_at: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in degrees, in (0, 180).
+    pub vfov_degrees: f32,
+}
+
+/// A camera ready to generate rays for one image size.
+#[derive(Clone, Copy, Debug)]
+pub struct Camera {
+    eye: Vec3,
+    forward: Vec3,
+    /// Image-right, scaled so that x in [-1, 1] spans the image width.
+    right: Vec3,
+    /// Image-up, scaled so that y in [-1, 1] spans the image height.
+    up: Vec3,
+    width: f32,
+    height: f32,
+}
+
+impl CameraSettings {
+    /// A view of the box `lo..hi` from its +z side (OBJ scenes are y-up), far enough
+    /// back that the whole box fits in the vertical field of view.
+    pub fn framing(lo: Vec3, hi: Vec3, vfov_degrees: f32) -> Self {
+        let center = 0.5 * (lo + hi);
+        let half = 0.5 * (hi - lo);
+        let half_fov = (0.5 * vfov_degrees).to_radians();
+        // Fit the front face's half-extent (x or y) in view, measured from that face.
+        let extent = half.x.max(half.y).max(1e-6);
+        let distance = half.z + extent / half_fov.tan();
+        CameraSettings {
+            eye: center + Vec3::new(0.0, 0.0, distance),
+            look_at: center,
+            up: Vec3::Y,
+            vfov_degrees,
+        }
+    }
+
+    /// Checks that the settings describe a camera: distinct eye and target, an up vector
+    /// not parallel to the view direction, a field of view strictly between 0 and 180.
+    pub fn validate(&self) -> Result<(), String> {
+        let finite = self.eye.is_finite() && self.look_at.is_finite() && self.up.is_finite();
+        if !finite {
+            return Err("camera vectors must be finite".into());
+        }
+        if !(self.vfov_degrees > 0.0 && self.vfov_degrees < 180.0) {
+            return Err(format!(
+                "field of view must be between 0 and 180 degrees (exclusive), got {}",
+                self.vfov_degrees
+            ));
+        }
+        let forward = self.look_at - self.eye;
+        if forward.length_squared() < 1e-12 {
+            return Err("camera eye and look-at point are the same".into());
+        }
+        if forward.normalize().cross(self.up).length_squared() < 1e-10 {
+            return Err("camera up vector is parallel to the view direction".into());
+        }
+        Ok(())
+    }
+
+    /// The camera for an image of `width × height` pixels. Call [`validate`] first.
+    ///
+    /// [`validate`]: CameraSettings::validate
+    pub fn camera(&self, width: u32, height: u32) -> Camera {
+        let forward = (self.look_at - self.eye).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        let tan_half = (0.5 * self.vfov_degrees).to_radians().tan();
+        let aspect = width as f32 / height as f32;
+        Camera {
+            eye: self.eye,
+            forward,
+            right: right * tan_half * aspect,
+            up: up * tan_half,
+            width: width as f32,
+            height: height as f32,
+        }
+    }
+}
+
+impl Camera {
+    /// The ray through image position `(x, y)` in pixels, `(0, 0)` being the top-left
+    /// corner of the image. Its direction is normalised.
+    #[inline]
+    pub fn ray(&self, x: f32, y: f32) -> Ray {
+        let sx = 2.0 * x / self.width - 1.0;
+        let sy = 1.0 - 2.0 * y / self.height;
+        let dir = (self.forward + sx * self.right + sy * self.up).normalize();
+        Ray::new(self.eye, dir)
+    }
+}

@@ -1,0 +1,94 @@
+//! A renderable scene: one triangle mesh, its materials and textures, and the list of
+//! emissive triangles. Immutable once built.
+
+mod camera;
+mod material;
+mod mesh;
+mod obj;
+
+pub use camera::{Camera, CameraSettings};
+pub use material::{Bsdf, Material, MtlValues, Scatter, Texture};
+pub use mesh::{SurfacePoint, TriangleMesh};
+pub use obj::{load_obj, LoadReport};
+
+use glam::Vec3;
+use std::path::PathBuf;
+
+/// Why a scene could not be loaded. Each message is one line that names the file.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    #[error("cannot read {path}: {source}")]
+    Io {
+        path: PathBuf,
+        source: std::io::Error,
+    },
+    #[error("{path} is a directory, not an OBJ file")]
+    IsDirectory { path: PathBuf },
+    #[error("{path} is not a valid OBJ file: {reason}")]
+    Obj { path: PathBuf, reason: String },
+    #[error("material library {path} (named by mtllib in {obj}): {reason}")]
+    Mtl {
+        path: PathBuf,
+        obj: PathBuf,
+        reason: String,
+    },
+    #[error("texture {path} (map_Kd of material {material:?}): {reason}")]
+    Texture {
+        path: PathBuf,
+        material: String,
+        reason: String,
+    },
+    #[error("{path}: {what} {index} is not finite ({value})")]
+    NonFinite {
+        path: PathBuf,
+        what: &'static str,
+        index: usize,
+        value: String,
+    },
+    #[error("{path} has no triangles to render{detail}")]
+    Empty { path: PathBuf, detail: String },
+    #[error("{path}: {what}")]
+    TooLarge { path: PathBuf, what: String },
+}
+
+/// Everything the integrator reads.
+#[derive(Clone, Debug)]
+pub struct Scene {
+    pub mesh: TriangleMesh,
+    pub materials: Vec<Material>,
+    pub textures: Vec<Texture>,
+    /// Indices of the triangles whose material emits.
+    pub emitters: Vec<u32>,
+}
+
+impl Scene {
+    /// Assembles a scene and finds its emitters.
+    pub fn new(mesh: TriangleMesh, materials: Vec<Material>, textures: Vec<Texture>) -> Self {
+        let emitters = (0..mesh.triangles.len() as u32)
+            .filter(|&t| materials[mesh.material[t as usize] as usize].is_emissive())
+            .collect();
+        Scene {
+            mesh,
+            materials,
+            textures,
+            emitters,
+        }
+    }
+
+    pub fn material(&self, surface: &SurfacePoint) -> &Material {
+        &self.materials[surface.material as usize]
+    }
+
+    /// The diffuse reflectance at a surface point (texture lookup where there is one).
+    pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
+        let material = self.material(surface);
+        match material.diffuse_texture {
+            Some(t) => self.textures[t as usize].sample(surface.uv),
+            None => material.diffuse,
+        }
+    }
+
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.mesh.bounds()
+    }
+}

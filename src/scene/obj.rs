@@ -1,0 +1,315 @@
+//! Loading Wavefront OBJ scenes (with their MTL materials and `map_Kd` textures) through
+//! `tobj`, and validating what it returns before anything is rendered.
+
+use std::cell::RefCell;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Vec2, Vec3};
+
+use super::{Material, MtlValues, Scene, SceneError, Texture, TriangleMesh};
+
+/// Facts about a load worth telling the user.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LoadReport {
+    pub triangles: usize,
+    pub vertices: usize,
+    pub materials: usize,
+    pub emitters: usize,
+    /// Zero-area (or otherwise degenerate) triangles that were dropped.
+    pub degenerate_dropped: usize,
+    /// Non-fatal oddities, one line each (for example a `usemtl` with no definition).
+    pub warnings: Vec<String>,
+}
+
+/// Reads a file whole; non-UTF-8 bytes (common in comments of old exporters) become
+/// U+FFFD instead of failing the load.
+fn read_text(path: &Path) -> std::io::Result<String> {
+    let bytes = std::fs::read(path)?;
+    Ok(match String::from_utf8(bytes) {
+        Ok(s) => s,
+        Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
+    })
+}
+
+fn vec3(a: [f32; 3]) -> Vec3 {
+    Vec3::from_array(a)
+}
+
+/// Loads an OBJ file, its material libraries and textures into a [`Scene`].
+pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
+    let io = |source| SceneError::Io {
+        path: path.to_owned(),
+        source,
+    };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if meta.is_dir() {
+        return Err(SceneError::IsDirectory {
+            path: path.to_owned(),
+        });
+    }
+    let text = read_text(path).map_err(io)?;
+    let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+
+    // tobj hands us each `mtllib` name; we read it ourselves so that a missing or
+    // broken library is an error naming the file, not a silently grey scene.
+    let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
+    let mtl_dirs: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
+    let load_mtl = |name: &Path| -> tobj::MTLLoadResult {
+        let mtl_path = dir.join(name);
+        let fail = |reason: String| {
+            mtl_error.borrow_mut().get_or_insert(SceneError::Mtl {
+                path: mtl_path.clone(),
+                obj: path.to_owned(),
+                reason,
+            });
+            Err(tobj::LoadError::OpenFileFailed)
+        };
+        let text = match read_text(&mtl_path) {
+            Ok(t) => t,
+            Err(e) => return fail(e.to_string()),
+        };
+        mtl_dirs
+            .borrow_mut()
+            .push(mtl_path.parent().unwrap_or(Path::new("")).to_path_buf());
+        tobj::load_mtl_buf(&mut text.as_bytes()).or_else(|e| fail(format!("{e}")))
+    };
+    let options = tobj::LoadOptions {
+        single_index: true,
+        triangulate: true,
+        ignore_points: true,
+        ignore_lines: true,
+    };
+    let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl);
+    if let Some(e) = mtl_error.into_inner() {
+        return Err(e);
+    }
+    let (models, tobj_materials) = loaded.map_err(|e| SceneError::Obj {
+        path: path.to_owned(),
+        reason: e.to_string(),
+    })?;
+    let tobj_materials = tobj_materials.map_err(|e| SceneError::Obj {
+        path: path.to_owned(),
+        reason: format!("materials: {e}"),
+    })?;
+
+    let mut report = LoadReport::default();
+    let mut textures = Vec::new();
+    let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
+    let mut search_dirs = vec![dir.clone()];
+    search_dirs.extend(mtl_dirs.into_inner());
+    let mut materials = Vec::with_capacity(tobj_materials.len() + 1);
+    for m in &tobj_materials {
+        let texture = match &m.diffuse_texture {
+            Some(name) => {
+                let file = find_texture(name, &search_dirs).ok_or_else(|| SceneError::Texture {
+                    path: dir.join(name),
+                    material: m.name.clone(),
+                    reason: "file not found".into(),
+                })?;
+                let id = match texture_ids.get(&file) {
+                    Some(&id) => id,
+                    None => {
+                        let texture =
+                            load_texture(&file).map_err(|reason| SceneError::Texture {
+                                path: file.clone(),
+                                material: m.name.clone(),
+                                reason,
+                            })?;
+                        textures.push(texture);
+                        let id = textures.len() as u32 - 1;
+                        texture_ids.insert(file, id);
+                        id
+                    }
+                };
+                Some(id)
+            }
+            None => None,
+        };
+        let values = MtlValues {
+            kd: m.diffuse.map(vec3),
+            ks: m.specular.map(vec3),
+            ke: m.emissive.map(vec3),
+            ns: m.shininess,
+            ni: m.optical_density,
+            d: m.dissolve,
+            tr: m
+                .unknown_param
+                .get("Tr")
+                .and_then(|t| t.trim().parse().ok()),
+            illum: m.illumination_model,
+        };
+        let check = [values.kd, values.ks, values.ke]
+            .into_iter()
+            .flatten()
+            .all(|c| c.is_finite());
+        if !check {
+            return Err(SceneError::Obj {
+                path: path.to_owned(),
+                reason: format!("material {:?} has a non-finite colour", m.name),
+            });
+        }
+        materials.push(Material::from_mtl(&m.name, &values, texture));
+    }
+    // Faces without a (known) material use a matte grey at the end of the list.
+    let default_material = materials.len() as u32;
+    materials.push(Material::default());
+
+    let mut mesh = TriangleMesh::default();
+    let mut any_normals = false;
+    let mut any_uvs = false;
+    for model in &models {
+        let m = &model.mesh;
+        let offset = mesh.positions.len();
+        let count = m.positions.len() / 3;
+        for (i, p) in m.positions.chunks_exact(3).enumerate() {
+            let p = Vec3::new(p[0], p[1], p[2]);
+            if !p.is_finite() {
+                return Err(non_finite(path, "vertex", offset + i + 1, p));
+            }
+            mesh.positions.push(p);
+        }
+        // tobj's single index gives attributes per vertex, or none for the whole model.
+        if m.normals.len() == m.positions.len() && count > 0 {
+            if !any_normals {
+                mesh.normals.resize(offset, Vec3::ZERO);
+                any_normals = true;
+            }
+            for (i, n) in m.normals.chunks_exact(3).enumerate() {
+                let n = Vec3::new(n[0], n[1], n[2]);
+                if !n.is_finite() {
+                    return Err(non_finite(path, "normal", offset + i + 1, n));
+                }
+                mesh.normals.push(n);
+            }
+        } else if any_normals {
+            mesh.normals.resize(offset + count, Vec3::ZERO);
+        }
+        if m.texcoords.len() / 2 == count && count > 0 {
+            if !any_uvs {
+                mesh.uvs.resize(offset, Vec2::ZERO);
+                any_uvs = true;
+            }
+            for (i, t) in m.texcoords.chunks_exact(2).enumerate() {
+                let t = Vec2::new(t[0], t[1]);
+                if !t.is_finite() {
+                    return Err(non_finite(
+                        path,
+                        "texture coordinate",
+                        offset + i + 1,
+                        t.extend(0.0),
+                    ));
+                }
+                mesh.uvs.push(t);
+            }
+        } else if any_uvs {
+            mesh.uvs.resize(offset + count, Vec2::ZERO);
+        }
+        let material = match m.material_id {
+            Some(id) if id < tobj_materials.len() => id as u32,
+            _ => default_material,
+        };
+        for tri in m.indices.chunks_exact(3) {
+            if tri.iter().any(|&i| i as usize >= count) {
+                return Err(SceneError::Obj {
+                    path: path.to_owned(),
+                    reason: format!("face index out of range in object {:?}", model.name),
+                });
+            }
+            let tri = [0, 1, 2].map(|k| (offset + tri[k] as usize) as u32);
+            let [a, b, c] = tri.map(|i| mesh.positions[i as usize]);
+            let doubled_area = (b - a).cross(c - a).length();
+            if !(doubled_area > 0.0 && doubled_area.is_finite()) {
+                report.degenerate_dropped += 1;
+                continue;
+            }
+            mesh.triangles.push(tri);
+            mesh.material.push(material);
+        }
+    }
+    if mesh.triangles.is_empty() {
+        let detail = if report.degenerate_dropped > 0 {
+            format!(
+                " (all {} triangles are degenerate)",
+                report.degenerate_dropped
+            )
+        } else {
+            " (no face statements were found)".to_owned()
+        };
+        return Err(SceneError::Empty {
+            path: path.to_owned(),
+            detail,
+        });
+    }
+    if text.contains("usemtl") && tobj_materials.is_empty() {
+        report.warnings.push(
+            "faces name materials but no material library was loaded; they render grey".into(),
+        );
+    }
+
+    let scene = Scene::new(mesh, materials, textures);
+    report.triangles = scene.mesh.triangles.len();
+    report.vertices = scene.mesh.positions.len();
+    report.materials = tobj_materials.len();
+    report.emitters = scene.emitters.len();
+    Ok((scene, report))
+}
+
+fn non_finite(path: &Path, what: &'static str, index: usize, value: Vec3) -> SceneError {
+    SceneError::NonFinite {
+        path: path.to_owned(),
+        what,
+        index,
+        value: format!("{} {} {}", value.x, value.y, value.z),
+    }
+}
+
+/// Finds a `map_Kd` file next to the OBJ or one of its MTL files. Options before the
+/// file name (`-s 1 1 1 wood.png`) are skipped by trying the last word too.
+fn find_texture(name: &str, dirs: &[PathBuf]) -> Option<PathBuf> {
+    let name = name.trim();
+    let last_word = name.split_whitespace().last().unwrap_or(name);
+    let normalized = |n: &str| n.replace('\\', "/");
+    [name, last_word]
+        .iter()
+        .flat_map(|n| dirs.iter().map(move |d| d.join(normalized(n))))
+        .find(|p| p.is_file())
+}
+
+/// Decodes an image into linear RGB: 8- and 16-bit images are taken as sRGB-encoded,
+/// floating-point ones (EXR, HDR) as already linear.
+fn load_texture(path: &Path) -> Result<Texture, String> {
+    let image = image::ImageReader::open(path)
+        .map_err(|e| e.to_string())?
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?
+        .decode()
+        .map_err(|e| e.to_string())?;
+    let srgb = !matches!(
+        image.color(),
+        image::ColorType::Rgb32F | image::ColorType::Rgba32F
+    );
+    let rgb = image.to_rgb32f();
+    let (width, height) = rgb.dimensions();
+    if width == 0 || height == 0 {
+        return Err("image is empty".into());
+    }
+    let decode = |c: f32| {
+        if !srgb {
+            c
+        } else if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let texels = rgb
+        .pixels()
+        .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
+        .collect();
+    Ok(Texture {
+        width,
+        height,
+        texels,
+    })
+}
