@@ -1,0 +1,110 @@
+//! The sampling building blocks against their mathematical definitions.
+
+use std::f64::consts::PI;
+
+use ember::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, Onb, Rng};
+use glam::Vec3;
+
+/// Upper 0.1% quantile of chi-square with `dof` degrees of freedom (Wilson–Hilferty).
+fn chi2_critical(dof: usize) -> f64 {
+    let k = dof as f64;
+    let z = 3.09; // one-sided 99.9%
+    k * (1.0 - 2.0 / (9.0 * k) + z * (2.0 / (9.0 * k)).sqrt()).powi(3)
+}
+
+#[test]
+fn cosine_samples_follow_cos_theta_over_pi() {
+    // Bins in (cos θ, φ); the expected count of each bin is N × ∫ cos θ / π dω over it,
+    // computed exactly: ∫ cos θ sin θ dθ dφ / π = (c1² − c0²) Δφ / (2π) for c = cos θ.
+    const THETA_BINS: usize = 10;
+    const PHI_BINS: usize = 16;
+    const N: usize = 400_000;
+    let mut counts = [[0usize; PHI_BINS]; THETA_BINS];
+    let mut rng = Rng::seeded(1);
+    for _ in 0..N {
+        let d = cosine_hemisphere(rng.f32(), rng.f32());
+        assert!((d.length() - 1.0).abs() < 1e-5, "not unit: {d}");
+        assert!(d.z >= 0.0, "below the hemisphere: {d}");
+        let ct = (d.z as f64).clamp(0.0, 1.0 - 1e-12);
+        let phi = (d.y as f64).atan2(d.x as f64).rem_euclid(2.0 * PI);
+        let i = (ct * THETA_BINS as f64) as usize;
+        let j = ((phi / (2.0 * PI)) * PHI_BINS as f64) as usize % PHI_BINS;
+        counts[i][j] += 1;
+    }
+    let mut chi2 = 0.0;
+    for (i, row) in counts.iter().enumerate() {
+        let (c0, c1) = (
+            i as f64 / THETA_BINS as f64,
+            (i + 1) as f64 / THETA_BINS as f64,
+        );
+        let p = (c1 * c1 - c0 * c0) / PHI_BINS as f64;
+        for &observed in row {
+            let expected = p * N as f64;
+            chi2 += (observed as f64 - expected).powi(2) / expected;
+        }
+    }
+    let dof = THETA_BINS * PHI_BINS - 1;
+    assert!(chi2 < chi2_critical(dof), "chi2 {chi2} over {dof} dof");
+}
+
+#[test]
+fn cosine_pdf_integrates_to_one_over_the_hemisphere() {
+    // Midpoint rule in (θ, φ): ∫∫ cos θ / π · sin θ dθ dφ.
+    let n = 400;
+    let mut sum = 0.0f64;
+    for i in 0..n {
+        let theta = (i as f64 + 0.5) / n as f64 * PI / 2.0;
+        let pdf = cosine_hemisphere_pdf(theta.cos() as f32) as f64;
+        sum += pdf * theta.sin() * (PI / 2.0 / n as f64) * 2.0 * PI;
+    }
+    assert!((sum - 1.0).abs() < 1e-4, "{sum}");
+    assert_eq!(cosine_hemisphere_pdf(-0.5), 0.0);
+}
+
+#[test]
+fn onb_is_orthonormal_and_right_handed_for_any_normal() {
+    let mut rng = Rng::seeded(9);
+    let mut normals: Vec<Vec3> = (0..10_000)
+        .map(|_| ember::sampling::uniform_sphere(rng.f32(), rng.f32()))
+        .collect();
+    // The classic trouble spots: the poles and the axes.
+    normals.extend([Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y]);
+    normals.push(Vec3::new(0.0, 1e-7, -1.0).normalize());
+    for w in normals {
+        let onb = Onb::from_w(w);
+        for (a, b) in [(onb.u, onb.v), (onb.v, onb.w), (onb.u, onb.w)] {
+            assert!(a.dot(b).abs() < 1e-5, "not orthogonal for {w}");
+        }
+        for e in [onb.u, onb.v, onb.w] {
+            assert!((e.length() - 1.0).abs() < 1e-5, "not unit for {w}");
+        }
+        assert!(onb.u.cross(onb.v).dot(onb.w) > 0.999, "left-handed for {w}");
+        let d = Vec3::new(0.3, -0.4, 0.866);
+        assert!((onb.to_local(onb.to_world(d)) - d).length() < 1e-5);
+    }
+}
+
+#[test]
+fn random_streams_are_uniform_and_distinct() {
+    // Mean and variance of U[0,1): 1/2 and 1/12, over many (pixel, sample) streams.
+    let mut sum = 0.0f64;
+    let mut sum2 = 0.0f64;
+    let n = 200_000;
+    for i in 0..n {
+        let x = Rng::for_sample(5, i / 16, i % 16).f32() as f64;
+        assert!((0.0..1.0).contains(&x));
+        sum += x;
+        sum2 += x * x;
+    }
+    let mean = sum / n as f64;
+    let var = sum2 / n as f64 - mean * mean;
+    assert!(
+        (mean - 0.5).abs() < 4.0 * (1.0 / 12.0 / n as f64).sqrt(),
+        "{mean}"
+    );
+    assert!((var - 1.0 / 12.0).abs() < 2e-3, "{var}");
+    assert_ne!(
+        Rng::for_sample(1, 2, 3).f32(),
+        Rng::for_sample(1, 3, 2).f32()
+    );
+}
