@@ -149,25 +149,6 @@ fn render_command(args: RenderArgs) -> Result<()> {
     film::check_writable(&output)?;
 
     let (scene, report) = load_obj(&args.scene)?;
-    for warning in &report.warnings {
-        eprintln!("warning: {}: {warning}", args.scene.display());
-    }
-    eprintln!(
-        "loaded {}: {} triangles, {} materials, {} emissive triangles{}",
-        args.scene.display(),
-        report.triangles,
-        report.materials,
-        report.emitters,
-        if report.degenerate_dropped > 0 {
-            format!(
-                ", {} degenerate triangles dropped",
-                report.degenerate_dropped
-            )
-        } else {
-            String::new()
-        }
-    );
-
     let (lo, hi) = scene.bounds();
     let framing = CameraSettings::framing(lo, hi, args.fov);
     let camera_settings = CameraSettings {
@@ -207,6 +188,26 @@ fn render_command(args: RenderArgs) -> Result<()> {
         BuildQuality::High,
     )
     .context("cannot build the Embree scene")?;
+
+    // Only now that every input has been checked: a failing run prints one line.
+    for warning in &report.warnings {
+        eprintln!("warning: {}: {warning}", args.scene.display());
+    }
+    eprintln!(
+        "loaded {}: {} triangles, {} materials, {} emissive triangles{}",
+        args.scene.display(),
+        report.triangles,
+        report.materials,
+        report.emitters,
+        if report.degenerate_dropped > 0 {
+            format!(
+                ", {} degenerate triangles dropped",
+                report.degenerate_dropped
+            )
+        } else {
+            String::new()
+        }
+    );
 
     let (film, stats) = pool.install(|| render_with_progress(&scene, &accel, &camera, &settings));
     film.save(&output)?;

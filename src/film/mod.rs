@@ -167,7 +167,15 @@ pub fn check_writable(path: &Path) -> Result<(), FilmError> {
         .prefix(".ember-check")
         .tempfile_in(dir)
         .map(drop)
-        .map_err(|e| fail(e.to_string()))
+        .map_err(|e| fail(io_reason(&e)))
+}
+
+/// An I/O error's message without the temporary file's name that tempfile appends.
+fn io_reason(e: &std::io::Error) -> String {
+    match e.raw_os_error() {
+        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
+        None => e.to_string(),
+    }
 }
 
 fn parent_dir(path: &Path) -> &Path {
@@ -188,7 +196,7 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FilmError> {
         .prefix(".ember-")
         .suffix(".tmp")
         .tempfile_in(parent_dir(path))
-        .map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| fail(io_reason(&e)))?;
     file.write_all(bytes).map_err(|e| fail(e.to_string()))?;
     file.as_file().sync_all().map_err(|e| fail(e.to_string()))?;
     file.persist(path).map_err(|e| fail(e.error.to_string()))?;

@@ -32,6 +32,17 @@ fn read_text(path: &Path) -> std::io::Result<String> {
     })
 }
 
+/// The OBJ text without comments, including those after a statement
+/// (`f 1 2 3 # quad`), which tobj would otherwise read as indices.
+fn strip_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for line in text.lines() {
+        out.push_str(line.split('#').next().unwrap_or(""));
+        out.push('\n');
+    }
+    out
+}
+
 fn vec3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
@@ -48,7 +59,7 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
             path: path.to_owned(),
         });
     }
-    let text = read_text(path).map_err(io)?;
+    let text = strip_comments(&read_text(path).map_err(io)?);
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
 
     // tobj hands us each `mtllib` name; we read it ourselves so that a missing or

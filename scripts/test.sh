@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Runs every check ember has: formatting, lints, the whole test suite against the
+# system's Embree, and the Embree tests again against Embree 4 (built from
+# ../shared/embree4/setup.sh when that rig is beside the repository).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== cargo fmt --check" >&2
+cargo fmt --all -- --check
+echo "== cargo clippy" >&2
+cargo clippy --release --all-targets -- -D warnings
+echo "== cargo test (system Embree)" >&2
+cargo test --release
+
+rig=../shared/embree4/setup.sh
+if [[ -f $rig ]]; then
+  echo "== Embree 4 leg" >&2
+  bash "$rig" "$PWD/.embree4" >/dev/null
+  EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test render
+else
+  echo "== Embree 4 leg skipped: $rig not found" >&2
+fi
