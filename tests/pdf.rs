@@ -64,7 +64,13 @@ fn onb_is_orthonormal_and_right_handed() {
     let mut normals: Vec<Vec3> = (0..10_000)
         .map(|_| ember::sampling::uniform_sphere(rng.f32(), rng.f32()))
         .collect();
-    normals.extend([Vec3::Z, -Vec3::Z, Vec3::X, -Vec3::Y, Vec3::new(0.0, 1e-7, -1.0).normalize()]);
+    normals.extend([
+        Vec3::Z,
+        -Vec3::Z,
+        Vec3::X,
+        -Vec3::Y,
+        Vec3::new(0.0, 1e-7, -1.0).normalize(),
+    ]);
     for w in normals {
         let f = Onb::from_w(w);
         for (a, b) in [(f.u, f.v), (f.v, f.w), (f.w, f.u)] {
@@ -73,7 +79,10 @@ fn onb_is_orthonormal_and_right_handed() {
         for a in [f.u, f.v, f.w] {
             assert!((a.length() - 1.0).abs() < 1e-5, "{w}: not unit");
         }
-        assert!((f.u.cross(f.v) - f.w).length() < 1e-5, "{w}: not right-handed");
+        assert!(
+            (f.u.cross(f.v) - f.w).length() < 1e-5,
+            "{w}: not right-handed"
+        );
     }
 }
 
@@ -103,7 +112,14 @@ fn bin_integrals(pdf: &impl Pdf, axis: Vec3, nz: usize, nphi: usize, sub: usize)
 
 /// Draws `n` directions and bins them like [`bin_integrals`]; also returns how many
 /// draws were void.
-fn histogram(pdf: &impl Pdf, axis: Vec3, nz: usize, nphi: usize, n: usize, seed: u64) -> (Vec<f64>, usize) {
+fn histogram(
+    pdf: &impl Pdf,
+    axis: Vec3,
+    nz: usize,
+    nphi: usize,
+    n: usize,
+    seed: u64,
+) -> (Vec<f64>, usize) {
     let frame = Onb::from_w(axis);
     let mut rng = Rng::seeded(seed);
     let mut counts = vec![0.0; nz * nphi];
@@ -140,7 +156,10 @@ fn chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize) {
         chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
         bins += 1;
     } else {
-        assert!(pooled_o <= pooled_e + 10.0, "{pooled_o} draws where the density is ~0");
+        assert!(
+            pooled_o <= pooled_e + 10.0,
+            "{pooled_o} draws where the density is ~0"
+        );
     }
     (chi2, bins.saturating_sub(1))
 }
@@ -160,7 +179,10 @@ fn check_density(name: &str, pdf: &impl Pdf, axis: Vec3, total: f64, seed: u64) 
     // About five standard deviations above the mean of the chi-square distribution.
     let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
     eprintln!("{name}: chi2 {chi2:.1} dof {dof} integral {integral:.5} void {void}");
-    assert!(chi2 < limit, "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})");
+    assert!(
+        chi2 < limit,
+        "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})"
+    );
     // The void draws are the mass missing from the integral.
     let p_void = 1.0 - total;
     let sigma = (n as f64 * p_void.max(1e-3) * (1.0 - p_void)).sqrt();
@@ -220,7 +242,10 @@ fn light_scene(occluded: bool) -> Built {
     )
 }
 
-fn light_pdf<'a>(built: &'a Built, lights: &'a LightSampler) -> LightPdf<'a, ember::accel::EmbreeAccel> {
+fn light_pdf<'a>(
+    built: &'a Built,
+    lights: &'a LightSampler,
+) -> LightPdf<'a, ember::accel::EmbreeAccel> {
     LightPdf {
         origin: Vec3::ZERO,
         lights,
@@ -234,7 +259,13 @@ fn cosine_density_is_normalised_and_matches_its_draws() {
     let normal = Vec3::new(0.3, 0.5, -0.8).normalize();
     check_density("cosine", &CosinePdf::new(normal), Vec3::Y, 1.0, 10);
     // Binned around its own normal, the histogram is the textbook cos θ / π one.
-    check_density("cosine (own frame)", &CosinePdf::new(normal), normal, 1.0, 11);
+    check_density(
+        "cosine (own frame)",
+        &CosinePdf::new(normal),
+        normal,
+        1.0,
+        11,
+    );
 }
 
 #[test]
@@ -254,7 +285,10 @@ fn light_density_is_normalised_and_matches_its_draws() {
 fn mixture_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
     let lights = LightSampler::new(&built.scene);
-    let mixture = MixturePdf::even(CosinePdf::new(Vec3::new(0.2, 1.0, 0.1).normalize()), light_pdf(&built, &lights));
+    let mixture = MixturePdf::even(
+        CosinePdf::new(Vec3::new(0.2, 1.0, 0.1).normalize()),
+        light_pdf(&built, &lights),
+    );
     check_density("mixture", &mixture, Vec3::Y, 1.0, 14);
     let uneven = MixturePdf {
         first: CosinePdf::new(-Vec3::X),
@@ -284,7 +318,10 @@ fn hidden_lights_make_void_draws_and_value_still_matches() {
     let pdf = light_pdf(&built, &lights);
     // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
     let integral: f64 = bin_integrals(&pdf, Vec3::Y, 20, 24, 12).iter().sum();
-    assert!(integral < 0.95, "occluder and back-facing light should hide mass");
+    assert!(
+        integral < 0.95,
+        "occluder and back-facing light should hide mass"
+    );
     check_density("light (occluded)", &pdf, Vec3::Y, integral, 16);
 }
 
@@ -299,7 +336,10 @@ fn light_value_equals_the_density_of_the_draw() {
         for _ in 0..20_000 {
             if let Some((dir, p)) = pdf.generate_with_pdf(&mut rng) {
                 let v = pdf.value(dir);
-                assert!((v - p).abs() <= 1e-3 * p, "value {v} vs generator density {p}");
+                assert!(
+                    (v - p).abs() <= 1e-3 * p,
+                    "value {v} vs generator density {p}"
+                );
                 produced += 1;
             }
         }

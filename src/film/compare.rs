@@ -38,7 +38,11 @@ pub fn compare(image: &Film, reference: &Film) -> Result<ImageError, SizeMismatc
         });
     }
     Ok(compare_pixels(
-        image.pixels.iter().zip(&reference.pixels).map(|(a, b)| (*a, *b)),
+        image
+            .pixels
+            .iter()
+            .zip(&reference.pixels)
+            .map(|(a, b)| (*a, *b)),
     ))
 }
 

@@ -271,9 +271,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if aimed_at.is_some() && next.map(|h| h.prim) != aimed_at {
             return None;
         }
-        let light_pdf = next.map_or(0.0, |h| {
-            self.lights.pdf_hit(self.scene, h.prim, dir, h.t)
-        });
+        let light_pdf = next.map_or(0.0, |h| self.lights.pdf_hit(self.scene, h.prim, dir, h.t));
         let mixture_pdf = 0.5 * cosine_pdf + 0.5 * light_pdf;
         Some((dir, next, cosine_pdf / mixture_pdf))
     }
@@ -282,7 +280,5 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 /// A cosine-weighted direction around the unit `normal`.
 #[inline]
 fn cosine_direction(normal: Vec3, rng: &mut Rng) -> Vec3 {
-    CosinePdf::new(normal)
-        .generate(rng)
-        .unwrap_or(normal)
+    CosinePdf::new(normal).generate(rng).unwrap_or(normal)
 }

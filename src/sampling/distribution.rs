@@ -18,18 +18,28 @@ impl AliasTable {
     /// The table for `weights`; outcomes with weight 0 (or not finite) are never chosen.
     /// Returns `None` when no weight is positive.
     pub fn new(weights: &[f32]) -> Option<Self> {
-        let clean = |w: f32| if w.is_finite() && w > 0.0 { w as f64 } else { 0.0 };
+        let clean = |w: f32| {
+            if w.is_finite() && w > 0.0 {
+                w as f64
+            } else {
+                0.0
+            }
+        };
         let total: f64 = weights.iter().map(|&w| clean(w)).sum();
         if !(total > 0.0) || weights.len() > u32::MAX as usize {
             return None;
         }
         let n = weights.len();
         // Scaled so that the mean bin holds exactly 1.
-        let mut scaled: Vec<f64> = weights.iter().map(|&w| clean(w) * n as f64 / total).collect();
+        let mut scaled: Vec<f64> = weights
+            .iter()
+            .map(|&w| clean(w) * n as f64 / total)
+            .collect();
         let pmf = weights.iter().map(|&w| (clean(w) / total) as f32).collect();
         let mut keep = vec![1.0f32; n];
         let mut alias: Vec<u32> = (0..n as u32).collect();
-        let (mut small, mut large): (Vec<usize>, Vec<usize>) = (0..n).partition(|&i| scaled[i] < 1.0);
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
         while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
             keep[s] = scaled[s] as f32;
             alias[s] = l as u32;

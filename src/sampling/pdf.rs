@@ -48,10 +48,7 @@ impl Pdf for CosinePdf {
 
     #[inline]
     fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
-        Some(
-            self.frame
-                .to_world(cosine_hemisphere(rng.f32(), rng.f32())),
-        )
+        Some(self.frame.to_world(cosine_hemisphere(rng.f32(), rng.f32())))
     }
 }
 

@@ -85,8 +85,12 @@ pub fn inward_cube(cells: u32, material: u32) -> Vec<([Vec3; 3], u32)> {
                 for j in 0..cells {
                     let (a0, b0) = (-1.0 + i as f32 * step, -1.0 + j as f32 * step);
                     let (a1, b1) = (a0 + step, b0 + step);
-                    let (p00, p10, p11, p01) =
-                        (corner(a0, b0), corner(a1, b0), corner(a1, b1), corner(a0, b1));
+                    let (p00, p10, p11, p01) = (
+                        corner(a0, b0),
+                        corner(a1, b0),
+                        corner(a1, b1),
+                        corner(a0, b1),
+                    );
                     // u × v points along +axis; inwards is -sign along the axis.
                     let cell = if sign > 0.0 {
                         quad(p00, p01, p11, p10, material)
