@@ -26,7 +26,7 @@ impl AliasTable {
             }
         };
         let total: f64 = weights.iter().map(|&w| clean(w)).sum();
-        if !(total > 0.0) || weights.len() > u32::MAX as usize {
+        if total.is_nan() || total <= 0.0 || weights.len() > u32::MAX as usize {
             return None;
         }
         let n = weights.len();

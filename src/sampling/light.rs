@@ -118,13 +118,13 @@ impl LightSampler {
         let to_light = point - origin;
         let distance_squared = to_light.length_squared();
         let distance = distance_squared.sqrt();
-        if !(distance > 0.0) {
+        if distance.is_nan() || distance <= 0.0 {
             return None;
         }
         let dir = to_light / distance;
         let normal = (b - a).cross(c - a).normalize_or_zero();
         let cos_light = -dir.dot(normal);
-        if !(cos_light > 0.0) {
+        if cos_light.is_nan() || cos_light <= 0.0 {
             return None;
         }
         let pdf = self.area_density[i] * distance_squared / cos_light;
