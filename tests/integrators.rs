@@ -13,7 +13,7 @@ use ember::embree::{BuildQuality, Device};
 use ember::film::{compare_pixels, Film, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::sampling::{uniform_sphere, Rng};
-use ember::scene::{load_obj, Camera, CameraSettings, Scene};
+use ember::scene::{load_obj, Bsdf, Camera, CameraSettings, Material, Scene};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -74,6 +74,58 @@ fn furnace_every_integrator_finds_the_geometric_series() {
                 }
             }
         }
+    }
+}
+
+/// The furnace again with every other triangle a perfect mirror of reflectance `a`
+/// (emitting `Le` too): specular bounces keep their delta sampling in every
+/// integrator, and the emission seen after them counts in full.
+#[test]
+fn furnace_with_mirrors() {
+    let albedo = 0.5f32;
+    let le = Vec3::new(0.3, 1.0, 2.0);
+    let mirror = Material {
+        specular: Vec3::splat(albedo),
+        emission: le,
+        bsdf: Bsdf::Metal { fuzz: 0.0 },
+        ..Material::default()
+    };
+    let tris: Vec<_> = inward_cube(3, 0)
+        .into_iter()
+        .enumerate()
+        .map(|(i, (t, _))| (t, (i % 2) as u32))
+        .collect();
+    let built = build(&tris, vec![diffuse(Vec3::splat(albedo), le), mirror]);
+    for kind in ALL {
+        let max_depth = 6;
+        let truth: f64 = (0..max_depth).map(|k| f64::from(albedo).powi(k)).sum();
+        let truth = le.as_dvec3() * truth;
+        let tracer = PathTracer::new(&built.scene, &built.accel, max_depth as u32, kind);
+        let (mean, sigma) = mean_radiance(&tracer, Vec3::new(-0.2, 0.1, 0.3), 20_000);
+        for c in 0..3 {
+            assert!(
+                (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
+                "{kind:?}: channel {c} = {} ± {}, expected {}",
+                mean[c],
+                sigma[c],
+                truth[c]
+            );
+        }
+    }
+}
+
+/// Without emitters every integrator returns black (and light sampling copes with
+/// having nothing to sample).
+#[test]
+fn no_lights_no_light() {
+    let built = build(
+        &inward_cube(1, 0),
+        vec![diffuse(Vec3::splat(0.8), Vec3::ZERO)],
+    );
+    for kind in ALL {
+        let tracer = PathTracer::new(&built.scene, &built.accel, 8, kind);
+        let (mean, _) = mean_radiance(&tracer, Vec3::ZERO, 1000);
+        assert_eq!(mean, DVec3::ZERO, "{kind:?}");
     }
 }
 
