@@ -134,9 +134,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                     EmissionWeight::Full => 1.0,
                     EmissionWeight::Skip => 0.0,
                     EmissionWeight::Mis { bsdf_pdf } => {
-                        let light_pdf =
-                            self.lights
-                                .pdf_hit(self.scene, current.prim, ray.dir, current.t);
+                        let light_pdf = self.lights.pdf_hit(current.prim, ray.dir, current.t);
                         power_heuristic(bsdf_pdf, light_pdf)
                     }
                 };
@@ -220,7 +218,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Vec3 {
-        let Some(light) = self.lights.sample(self.scene, surface.p, rng) else {
+        let Some(light) = self.lights.sample(surface.p, rng) else {
             return Vec3::ZERO;
         };
         let cos = light.dir.dot(normal);
@@ -260,7 +258,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let (dir, aimed_at) = if rng.f32() < 0.5 {
             (cosine.generate(rng)?, None)
         } else {
-            let light = self.lights.sample(self.scene, surface.p, rng)?;
+            let light = self.lights.sample(surface.p, rng)?;
             (light.dir, Some(light.prim))
         };
         let cosine_pdf = cosine.value(dir);
@@ -271,7 +269,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if aimed_at.is_some() && next.map(|h| h.prim) != aimed_at {
             return None;
         }
-        let light_pdf = next.map_or(0.0, |h| self.lights.pdf_hit(self.scene, h.prim, dir, h.t));
+        let light_pdf = next.map_or(0.0, |h| self.lights.pdf_hit(h.prim, dir, h.t));
         let mixture_pdf = 0.5 * cosine_pdf + 0.5 * light_pdf;
         Some((dir, next, cosine_pdf / mixture_pdf))
     }

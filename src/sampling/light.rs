@@ -27,10 +27,24 @@ pub fn luminance(c: Vec3) -> f32 {
 pub struct LightSampler {
     /// Global triangle index of each emitter, ascending (as in `Scene::emitters`).
     prims: Vec<u32>,
-    /// Probability of choosing emitter `i`, divided by its area: the density per unit
-    /// area of a sampled point on it.
-    area_density: Vec<f32>,
+    /// What sampling needs of each emitter, copied out of the mesh so that a sample
+    /// touches one 64-byte record instead of indices, vertices and materials.
+    emitters: Vec<Emitter>,
     table: Option<AliasTable>,
+}
+
+/// One emissive triangle: `v0 + b1 e1 + b2 e2`.
+#[derive(Clone, Copy, Debug)]
+struct Emitter {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    /// Unit normal of the emitting side (counter-clockwise winding).
+    normal: Vec3,
+    emission: Vec3,
+    /// Probability of choosing this triangle divided by its area: the density per
+    /// unit area of a sampled point on it.
+    area_density: f32,
 }
 
 /// A point chosen on a light, as seen from the point it was chosen for.
@@ -55,32 +69,32 @@ impl LightSampler {
     pub fn new(scene: &Scene) -> Self {
         let mut prims = scene.emitters.clone();
         prims.sort_unstable();
+        let emission = |t: u32| scene.materials[scene.mesh.material[t as usize] as usize].emission;
         let weights: Vec<f32> = prims
             .iter()
-            .map(|&t| {
-                let material = &scene.materials[scene.mesh.material[t as usize] as usize];
-                scene.mesh.area(t) * luminance(material.emission).max(0.0)
-            })
+            .map(|&t| scene.mesh.area(t) * luminance(emission(t)).max(0.0))
             .collect();
         let table = AliasTable::new(&weights);
-        let area_density = match &table {
-            Some(table) => prims
-                .iter()
-                .enumerate()
-                .map(|(i, &t)| {
-                    let area = scene.mesh.area(t);
-                    if area > 0.0 {
-                        table.pmf(i) / area
-                    } else {
-                        0.0
-                    }
-                })
-                .collect(),
-            None => vec![0.0; prims.len()],
-        };
+        let emitters = prims
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let [a, b, c] = scene.mesh.vertices(t);
+                let area = scene.mesh.area(t);
+                let probability = table.as_ref().map_or(0.0, |table| table.pmf(i));
+                Emitter {
+                    v0: a,
+                    e1: b - a,
+                    e2: c - a,
+                    normal: (b - a).cross(c - a).normalize_or_zero(),
+                    emission: emission(t),
+                    area_density: if area > 0.0 { probability / area } else { 0.0 },
+                }
+            })
+            .collect();
         LightSampler {
             prims,
-            area_density,
+            emitters,
             table,
         }
     }
@@ -99,22 +113,26 @@ impl LightSampler {
     /// O(log n) by binary search over the sorted emitter list.
     #[inline]
     pub fn area_density(&self, prim: u32) -> f32 {
-        match self.prims.binary_search(&prim) {
-            Ok(i) => self.area_density[i],
-            Err(_) => 0.0,
-        }
+        self.emitter(prim).map_or(0.0, |e| e.area_density)
+    }
+
+    #[inline]
+    fn emitter(&self, prim: u32) -> Option<&Emitter> {
+        self.prims
+            .binary_search(&prim)
+            .ok()
+            .map(|i| &self.emitters[i])
     }
 
     /// A point on a light for the shading point `origin`, or `None` when there are no
     /// lights or the chosen point faces away from `origin` (a sample worth nothing).
     #[inline]
-    pub fn sample(&self, scene: &Scene, origin: Vec3, rng: &mut Rng) -> Option<LightSample> {
+    pub fn sample(&self, origin: Vec3, rng: &mut Rng) -> Option<LightSample> {
         let table = self.table.as_ref()?;
         let i = table.sample(rng);
-        let prim = self.prims[i];
-        let [a, b, c] = scene.mesh.vertices(prim);
+        let emitter = &self.emitters[i];
         let (b1, b2) = uniform_triangle(rng.f32(), rng.f32());
-        let point = (1.0 - b1 - b2) * a + b1 * b + b2 * c;
+        let point = emitter.v0 + b1 * emitter.e1 + b2 * emitter.e2;
         let to_light = point - origin;
         let distance_squared = to_light.length_squared();
         let distance = distance_squared.sqrt();
@@ -122,23 +140,21 @@ impl LightSampler {
             return None;
         }
         let dir = to_light / distance;
-        let normal = (b - a).cross(c - a).normalize_or_zero();
-        let cos_light = -dir.dot(normal);
+        let cos_light = -dir.dot(emitter.normal);
         if cos_light.is_nan() || cos_light <= 0.0 {
             return None;
         }
-        let pdf = self.area_density[i] * distance_squared / cos_light;
-        if !(pdf > 0.0 && pdf.is_finite()) {
+        let pdf = emitter.area_density * distance_squared / cos_light;
+        if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
-        let material = &scene.materials[scene.mesh.material[prim as usize] as usize];
         Some(LightSample {
             dir,
             distance,
             point,
             pdf,
-            prim,
-            emission: material.emission,
+            prim: self.prims[i],
+            emission: emitter.emission,
         })
     }
 
@@ -146,14 +162,13 @@ impl LightSampler {
     /// where a ray along unit `dir` first hits triangle `prim` at distance `distance`
     /// (0 when `prim` is no light or is seen from behind).
     #[inline]
-    pub fn pdf_hit(&self, scene: &Scene, prim: u32, dir: Vec3, distance: f32) -> f32 {
-        let density = self.area_density(prim);
-        if density == 0.0 {
+    pub fn pdf_hit(&self, prim: u32, dir: Vec3, distance: f32) -> f32 {
+        let Some(emitter) = self.emitter(prim) else {
             return 0.0;
-        }
-        let cos_light = -dir.dot(scene.mesh.area_normal(prim).normalize_or_zero());
+        };
+        let cos_light = -dir.dot(emitter.normal);
         if cos_light > 0.0 {
-            density * distance * distance / cos_light
+            emitter.area_density * distance * distance / cos_light
         } else {
             0.0
         }

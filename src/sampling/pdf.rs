@@ -68,7 +68,7 @@ pub struct LightPdf<'a, A: Accel> {
 impl<A: Accel> LightPdf<'_, A> {
     /// A direction with the density the sampler used for it, or `None` for a void draw.
     pub fn generate_with_pdf(&self, rng: &mut Rng) -> Option<(Vec3, f32)> {
-        let sample = self.lights.sample(self.scene, self.origin, rng)?;
+        let sample = self.lights.sample(self.origin, rng)?;
         let hit = self.accel.intersect(&Ray::new(self.origin, sample.dir))?;
         (hit.prim == sample.prim).then_some((sample.dir, sample.pdf))
     }
@@ -78,7 +78,7 @@ impl<A: Accel> Pdf for LightPdf<'_, A> {
     fn value(&self, dir: Vec3) -> f32 {
         let dir = dir.normalize_or_zero();
         match self.accel.intersect(&Ray::new(self.origin, dir)) {
-            Some(hit) => self.lights.pdf_hit(self.scene, hit.prim, dir, hit.t),
+            Some(hit) => self.lights.pdf_hit(hit.prim, dir, hit.t),
             None => 0.0,
         }
     }
