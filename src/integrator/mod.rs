@@ -14,7 +14,13 @@
 //! - [`IntegratorKind::Mixture`]: "The Rest of Your Life": one direction from the
 //!   50/50 mixture of the cosine and light densities, weighted by the mixture density.
 //! - [`IntegratorKind::Mis`]: next-event estimation plus the cosine sample, both
-//!   weighted by the power heuristic, with Russian roulette on long paths.
+//!   weighted by the power heuristic, with Russian roulette on long paths. At the last
+//!   vertex the cosine ray could only find emission, so the light sample alone (weight
+//!   1) is used there and that ray is not traced.
+//!
+//! Why `Light` is next-event estimation rather than the book's "sample only the light
+//! PDF": a path that only ever goes towards lights has density 0 for every other
+//! direction, so it cannot converge to global illumination (only to direct light).
 //!
 //! Specular materials (metal, glass, plastic coats) keep their own delta sampling in
 //! all four, and emission seen right after them counts in full.
@@ -161,9 +167,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                         (dir, None)
                     }
                     IntegratorKind::Light | IntegratorKind::Mis => {
-                        let mis = self.kind == IntegratorKind::Mis;
+                        // At the last vertex only direct light is left to find: the
+                        // light sample alone (unweighted) estimates it, so no cosine
+                        // ray is traced just to be weighted against it.
+                        let last_vertex = segment + 1 == self.max_depth;
+                        let mis = self.kind == IntegratorKind::Mis && !last_vertex;
                         radiance += throughput
                             * self.direct_light(&surface, normal, albedo, mis, rng, count);
+                        if last_vertex {
+                            break;
+                        }
                         let dir = cosine_direction(normal, rng);
                         throughput *= albedo;
                         emission_weight = if mis {
