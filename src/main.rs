@@ -30,6 +30,8 @@ struct Cli {
 enum Command {
     /// Render an OBJ scene to PNG (sRGB), EXR or HDR (linear).
     Render(RenderArgs),
+    /// Print MSE, relative MSE and PSNR of an image against a reference (EXR, HDR or PNG).
+    Compare(CompareArgs),
     /// Show the Embree library in use, its ISA and threads, and how ember was built.
     Info,
 }
@@ -74,8 +76,16 @@ struct RenderArgs {
     #[arg(long, default_value_t = 40.0, value_parser = parse_fov)]
     fov: f32,
     /// Light-transport estimator.
-    #[arg(long, value_enum, default_value_t = IntegratorKind::Bsdf)]
+    #[arg(long, value_enum, default_value_t = IntegratorKind::default())]
     integrator: IntegratorKind,
+}
+
+#[derive(Args)]
+struct CompareArgs {
+    /// The image to judge.
+    image: PathBuf,
+    /// The reference it is compared with (relative MSE is relative to this one).
+    reference: PathBuf,
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -124,6 +134,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render_command(args),
+        Command::Compare(args) => compare_command(args),
         Command::Info => info_command(),
     };
     match result {
@@ -246,6 +257,17 @@ fn render_with_progress<A: Accel>(
     let result = render::render(scene, accel, camera, settings, &|pixels| bar.inc(pixels));
     bar.finish_and_clear();
     result
+}
+
+fn compare_command(args: CompareArgs) -> Result<()> {
+    let image = Film::load(&args.image)?;
+    let reference = Film::load(&args.reference)?;
+    let error = film::compare(&image, &reference)?;
+    println!(
+        "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
+        error.mse, error.rel_mse, error.psnr
+    );
+    Ok(())
 }
 
 fn info_command() -> Result<()> {

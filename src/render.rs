@@ -81,12 +81,7 @@ pub fn render<A: Accel>(
     on_tile_done: &(dyn Fn(u64) + Sync),
 ) -> (Film, RenderStats) {
     let start = Instant::now();
-    let tracer = PathTracer {
-        scene,
-        accel,
-        max_depth: settings.max_depth,
-        kind: settings.integrator,
-    };
+    let tracer = PathTracer::new(scene, accel, settings.max_depth, settings.integrator);
     let results: Vec<TileResult> = tiles(settings.width, settings.height)
         .into_par_iter()
         .map(|(x0, y0, w, h)| {

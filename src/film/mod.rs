@@ -1,6 +1,10 @@
 //! The image being rendered (linear `f32` RGB) and writing it out: PNG as 8-bit sRGB,
 //! EXR and HDR as linear radiance. Files appear whole or not at all.
 
+mod compare;
+
+pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+
 use std::io::Write;
 use std::path::{Path, PathBuf};
 

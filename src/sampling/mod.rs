@@ -1,9 +1,15 @@
 //! Random numbers, local frames and the probability densities the integrators sample.
 
+mod distribution;
+mod light;
 mod onb;
+mod pdf;
 mod rng;
 
+pub use distribution::AliasTable;
+pub use light::{luminance, LightSample, LightSampler};
 pub use onb::Onb;
+pub use pdf::{CosinePdf, LightPdf, MixturePdf, Pdf, UniformSpherePdf};
 pub use rng::Rng;
 
 use glam::Vec3;

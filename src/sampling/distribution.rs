@@ -1,0 +1,119 @@
+//! Discrete distributions sampled in constant time: Walker's alias method, built once
+//! (for example over a scene's emitters) and queried per sample without allocation.
+
+use super::Rng;
+
+/// An alias table over `n` outcomes with given non-negative weights (Vose's O(n)
+/// construction). Sampling costs one uniform index and one comparison, whatever `n`.
+#[derive(Clone, Debug, Default)]
+pub struct AliasTable {
+    /// Probability of keeping bin `i` rather than jumping to `alias[i]`.
+    keep: Vec<f32>,
+    alias: Vec<u32>,
+    /// Normalised probability of each outcome.
+    pmf: Vec<f32>,
+}
+
+impl AliasTable {
+    /// The table for `weights`; outcomes with weight 0 (or not finite) are never chosen.
+    /// Returns `None` when no weight is positive.
+    pub fn new(weights: &[f32]) -> Option<Self> {
+        let clean = |w: f32| {
+            if w.is_finite() && w > 0.0 {
+                w as f64
+            } else {
+                0.0
+            }
+        };
+        let total: f64 = weights.iter().map(|&w| clean(w)).sum();
+        if total.is_nan() || total <= 0.0 || weights.len() > u32::MAX as usize {
+            return None;
+        }
+        let n = weights.len();
+        // Scaled so that the mean bin holds exactly 1.
+        let mut scaled: Vec<f64> = weights
+            .iter()
+            .map(|&w| clean(w) * n as f64 / total)
+            .collect();
+        let pmf = weights.iter().map(|&w| (clean(w) / total) as f32).collect();
+        let mut keep = vec![1.0f32; n];
+        let mut alias: Vec<u32> = (0..n as u32).collect();
+        let (mut small, mut large): (Vec<usize>, Vec<usize>) =
+            (0..n).partition(|&i| scaled[i] < 1.0);
+        while let (Some(s), Some(&l)) = (small.pop(), large.last()) {
+            keep[s] = scaled[s] as f32;
+            alias[s] = l as u32;
+            scaled[l] -= 1.0 - scaled[s];
+            if scaled[l] < 1.0 {
+                large.pop();
+                small.push(l);
+            }
+        }
+        // What is left holds (up to rounding) exactly 1: always keep it.
+        for i in small.into_iter().chain(large) {
+            keep[i] = 1.0;
+            alias[i] = i as u32;
+        }
+        Some(AliasTable { keep, alias, pmf })
+    }
+
+    pub fn len(&self) -> usize {
+        self.pmf.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pmf.is_empty()
+    }
+
+    /// Probability of outcome `i`.
+    #[inline]
+    pub fn pmf(&self, i: usize) -> f32 {
+        self.pmf[i]
+    }
+
+    /// An outcome drawn with probability [`pmf`](Self::pmf).
+    #[inline]
+    pub fn sample(&self, rng: &mut Rng) -> usize {
+        let i = rng.below(self.pmf.len() as u32) as usize;
+        if rng.f32() < self.keep[i] {
+            i
+        } else {
+            self.alias[i] as usize
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frequencies_match_weights() {
+        let weights = [1.0, 0.0, 3.0, 0.5, 5.5];
+        let table = AliasTable::new(&weights).unwrap();
+        let total: f32 = weights.iter().sum();
+        let mut rng = Rng::seeded(3);
+        let n = 200_000;
+        let mut counts = [0u32; 5];
+        for _ in 0..n {
+            counts[table.sample(&mut rng)] += 1;
+        }
+        for (i, &w) in weights.iter().enumerate() {
+            let p = w / total;
+            assert!((table.pmf(i) - p).abs() < 1e-6);
+            let sigma = (n as f32 * p * (1.0 - p)).sqrt();
+            assert!(
+                (counts[i] as f32 - n as f32 * p).abs() <= 5.0 * sigma + 1e-3,
+                "outcome {i}: {} draws, expected {}",
+                counts[i],
+                n as f32 * p
+            );
+        }
+    }
+
+    #[test]
+    fn no_positive_weight_is_none() {
+        assert!(AliasTable::new(&[]).is_none());
+        assert!(AliasTable::new(&[0.0, f32::NAN, -1.0]).is_none());
+    }
+}

@@ -1,0 +1,176 @@
+//! Choosing points on a scene's emissive triangles, and the solid-angle density of
+//! doing so: the light half of "Ray Tracing: The Rest of Your Life".
+//!
+//! A triangle is chosen in proportion to its power (area × luminance of `Ke`) from an
+//! alias table built once per scene, so the cost per sample does not grow with the
+//! number of lights; then a uniform point on it. Seen from a point `p`, a point `q` on
+//! triangle `i` (area `A_i`, chosen with probability `P_i`) has the density in solid
+//! angle `P_i / A_i · |q − p|² / cos α`, where α is the angle between the triangle's
+//! emitting normal and the direction back to `p`.
+//!
+//! Emitters are one-sided: they emit on the side their counter-clockwise normal points
+//! to. A point seen from behind has density 0: it is never a useful light sample.
+
+use glam::Vec3;
+
+use super::{uniform_triangle, AliasTable, Rng};
+use crate::scene::Scene;
+
+/// Perceived brightness of linear RGB (Rec. 709 weights).
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
+}
+
+/// The scene's emitters with a power-proportional distribution over them.
+#[derive(Clone, Debug, Default)]
+pub struct LightSampler {
+    /// Global triangle index of each emitter, ascending (as in `Scene::emitters`).
+    prims: Vec<u32>,
+    /// What sampling needs of each emitter, copied out of the mesh so that a sample
+    /// touches one 64-byte record instead of indices, vertices and materials.
+    emitters: Vec<Emitter>,
+    table: Option<AliasTable>,
+}
+
+/// One emissive triangle: `v0 + b1 e1 + b2 e2`.
+#[derive(Clone, Copy, Debug)]
+struct Emitter {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    /// Unit normal of the emitting side (counter-clockwise winding).
+    normal: Vec3,
+    emission: Vec3,
+    /// Probability of choosing this triangle divided by its area: the density per
+    /// unit area of a sampled point on it.
+    area_density: f32,
+}
+
+/// A point chosen on a light, as seen from the point it was chosen for.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point to the light point.
+    pub dir: Vec3,
+    /// Distance from the shading point to the light point.
+    pub distance: f32,
+    /// The light point itself.
+    pub point: Vec3,
+    /// Solid-angle density with which `dir` was chosen (> 0).
+    pub pdf: f32,
+    /// Global triangle index of the chosen emitter.
+    pub prim: u32,
+    /// Radiance the light point emits towards the shading point.
+    pub emission: Vec3,
+}
+
+impl LightSampler {
+    /// Builds the distribution over `scene.emitters` (O(n), once per scene).
+    pub fn new(scene: &Scene) -> Self {
+        let mut prims = scene.emitters.clone();
+        prims.sort_unstable();
+        let emission = |t: u32| scene.materials[scene.mesh.material[t as usize] as usize].emission;
+        let weights: Vec<f32> = prims
+            .iter()
+            .map(|&t| scene.mesh.area(t) * luminance(emission(t)).max(0.0))
+            .collect();
+        let table = AliasTable::new(&weights);
+        let emitters = prims
+            .iter()
+            .enumerate()
+            .map(|(i, &t)| {
+                let [a, b, c] = scene.mesh.vertices(t);
+                let area = scene.mesh.area(t);
+                let probability = table.as_ref().map_or(0.0, |table| table.pmf(i));
+                Emitter {
+                    v0: a,
+                    e1: b - a,
+                    e2: c - a,
+                    normal: (b - a).cross(c - a).normalize_or_zero(),
+                    emission: emission(t),
+                    area_density: if area > 0.0 { probability / area } else { 0.0 },
+                }
+            })
+            .collect();
+        LightSampler {
+            prims,
+            emitters,
+            table,
+        }
+    }
+
+    /// Whether there is anything to sample.
+    pub fn is_empty(&self) -> bool {
+        self.table.is_none()
+    }
+
+    /// Number of emissive triangles that can be chosen or hit.
+    pub fn len(&self) -> usize {
+        self.prims.len()
+    }
+
+    /// Density per unit area of sampled points on triangle `prim` (0 for non-emitters):
+    /// O(log n) by binary search over the sorted emitter list.
+    #[inline]
+    pub fn area_density(&self, prim: u32) -> f32 {
+        self.emitter(prim).map_or(0.0, |e| e.area_density)
+    }
+
+    #[inline]
+    fn emitter(&self, prim: u32) -> Option<&Emitter> {
+        self.prims
+            .binary_search(&prim)
+            .ok()
+            .map(|i| &self.emitters[i])
+    }
+
+    /// A point on a light for the shading point `origin`, or `None` when there are no
+    /// lights or the chosen point faces away from `origin` (a sample worth nothing).
+    #[inline]
+    pub fn sample(&self, origin: Vec3, rng: &mut Rng) -> Option<LightSample> {
+        let table = self.table.as_ref()?;
+        let i = table.sample(rng);
+        let emitter = &self.emitters[i];
+        let (b1, b2) = uniform_triangle(rng.f32(), rng.f32());
+        let point = emitter.v0 + b1 * emitter.e1 + b2 * emitter.e2;
+        let to_light = point - origin;
+        let distance_squared = to_light.length_squared();
+        let distance = distance_squared.sqrt();
+        if distance.is_nan() || distance <= 0.0 {
+            return None;
+        }
+        let dir = to_light / distance;
+        let cos_light = -dir.dot(emitter.normal);
+        if cos_light.is_nan() || cos_light <= 0.0 {
+            return None;
+        }
+        let pdf = emitter.area_density * distance_squared / cos_light;
+        if !pdf.is_finite() || pdf <= 0.0 {
+            return None;
+        }
+        Some(LightSample {
+            dir,
+            distance,
+            point,
+            pdf,
+            prim: self.prims[i],
+            emission: emitter.emission,
+        })
+    }
+
+    /// The solid-angle density with which [`sample`](Self::sample) picks the point
+    /// where a ray along unit `dir` first hits triangle `prim` at distance `distance`
+    /// (0 when `prim` is no light or is seen from behind).
+    #[inline]
+    pub fn pdf_hit(&self, prim: u32, dir: Vec3, distance: f32) -> f32 {
+        let Some(emitter) = self.emitter(prim) else {
+            return 0.0;
+        };
+        let cos_light = -dir.dot(emitter.normal);
+        if cos_light > 0.0 {
+            emitter.area_density * distance * distance / cos_light
+        } else {
+            0.0
+        }
+    }
+}

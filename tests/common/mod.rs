@@ -1,0 +1,110 @@
+//! Scenes built in code for the sampling and integrator tests.
+#![allow(dead_code)]
+
+use ember::accel::EmbreeAccel;
+use ember::embree::{BuildQuality, Device};
+use ember::scene::{Material, Scene, TriangleMesh};
+use glam::Vec3;
+
+/// A scene and the Embree structure over it.
+pub struct Built {
+    pub scene: Scene,
+    pub accel: EmbreeAccel,
+    // Declared last: dropped after the accelerator that uses it.
+    _device: Device,
+}
+
+/// Triangles as (vertices, material index), with their materials.
+pub fn build(triangles: &[([Vec3; 3], u32)], materials: Vec<Material>) -> Built {
+    let mut positions = Vec::new();
+    let mut tris = Vec::new();
+    let mut material = Vec::new();
+    for (verts, m) in triangles {
+        let base = positions.len() as u32;
+        positions.extend_from_slice(verts);
+        tris.push([base, base + 1, base + 2]);
+        material.push(*m);
+    }
+    let mesh = TriangleMesh {
+        positions,
+        normals: Vec::new(),
+        uvs: Vec::new(),
+        triangles: tris,
+        material,
+    };
+    let scene = Scene::new(mesh, materials, Vec::new());
+    let device = Device::new("").expect("Embree device");
+    let accel = EmbreeAccel::build(
+        &device,
+        &scene.mesh.positions,
+        &scene.mesh.triangles,
+        BuildQuality::High,
+    )
+    .expect("Embree scene");
+    Built {
+        scene,
+        accel,
+        _device: device,
+    }
+}
+
+pub fn diffuse(albedo: Vec3, emission: Vec3) -> Material {
+    Material {
+        diffuse: albedo,
+        emission,
+        ..Material::default()
+    }
+}
+
+/// The two triangles of the quad `a b c d` (counter-clockwise seen from the side its
+/// normal points to).
+pub fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, material: u32) -> [([Vec3; 3], u32); 2] {
+    [([a, b, c], material), ([a, c, d], material)]
+}
+
+/// The cube `[-1, 1]³` with each face cut into `cells × cells` quads (2 triangles
+/// each), wound so that all normals point inwards: `12 · cells²` triangles.
+pub fn inward_cube(cells: u32, material: u32) -> Vec<([Vec3; 3], u32)> {
+    let mut tris = Vec::new();
+    let step = 2.0 / cells as f32;
+    for axis in 0..3 {
+        for sign in [-1.0f32, 1.0] {
+            // Face at coordinate `axis` = sign; u, v span the other two axes.
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            let corner = |a: f32, b: f32| {
+                let mut p = [0.0f32; 3];
+                p[axis] = sign;
+                p[u] = a;
+                p[v] = b;
+                Vec3::from_array(p)
+            };
+            let mut inward = [0.0f32; 3];
+            inward[axis] = -sign;
+            let inward = Vec3::from_array(inward);
+            for i in 0..cells {
+                for j in 0..cells {
+                    let (a0, b0) = (-1.0 + i as f32 * step, -1.0 + j as f32 * step);
+                    let (a1, b1) = (a0 + step, b0 + step);
+                    let (p00, p10, p11, p01) = (
+                        corner(a0, b0),
+                        corner(a1, b0),
+                        corner(a1, b1),
+                        corner(a0, b1),
+                    );
+                    // u × v points along +axis; inwards is -sign along the axis.
+                    let cell = if sign > 0.0 {
+                        quad(p00, p01, p11, p10, material)
+                    } else {
+                        quad(p00, p10, p11, p01, material)
+                    };
+                    for t in cell {
+                        let n = (t.0[1] - t.0[0]).cross(t.0[2] - t.0[0]);
+                        assert!(n.dot(inward) > 0.0, "cube triangle faces outwards");
+                        tris.push(t);
+                    }
+                }
+            }
+        }
+    }
+    tris
+}
