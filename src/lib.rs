@@ -10,6 +10,7 @@ pub mod accel;
 pub mod embree;
 pub mod film;
 pub mod integrator;
+pub mod limits;
 pub mod render;
 pub mod sampling;
 pub mod scene;

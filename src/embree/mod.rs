@@ -386,6 +386,20 @@ impl Drop for Scene {
     }
 }
 
+/// Embree's limit on ray origin and direction components (`FLT_LARGE` in its sources).
+const EMBREE_LARGE: f32 = 1.844e18;
+
+/// Whether Embree accepts the ray (its `RayK::valid()`): origin and direction components
+/// within ±1.844e18, and no NaN in `tnear`/`tfar`. Debian's Embree 3.13.5 is built with
+/// assertions and aborts the process on any other ray, and release builds give
+/// undefined results; ember answers such rays as misses instead. Hostile inputs make
+/// them: vertices near `f32::MAX`, or an `--eye` far outside the scene.
+#[inline]
+fn embree_accepts(ray: &Ray) -> bool {
+    let small = |v: glam::Vec3| v.abs().cmple(glam::Vec3::splat(EMBREE_LARGE)).all();
+    small(ray.origin) && small(ray.dir) && !ray.tmin.is_nan() && !ray.tmax.is_nan()
+}
+
 fn raw_ray(ray: &Ray) -> sys::RTCRay {
     sys::RTCRay {
         org_x: ray.origin.x,
@@ -443,6 +457,9 @@ impl Scene {
     /// Nearest hit of one ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !embree_accepts(ray) {
+            return None;
+        }
         let mut rayhit = sys::RTCRayHit {
             ray: raw_ray(ray),
             hit: empty_hit(),
@@ -470,6 +487,9 @@ impl Scene {
     /// Whether anything blocks the ray segment.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if !embree_accepts(ray) {
+            return false;
+        }
         let mut raw = raw_ray(ray);
         #[cfg(embree3)]
         {
@@ -495,7 +515,8 @@ impl Scene {
         // is filled below.
         let mut packet: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid[lane] = -1;
+            // A ray Embree would reject stays inactive: a miss.
+            valid[lane] = if embree_accepts(ray) { -1 } else { 0 };
             let (r, h) = (&mut packet.ray, &mut packet.hit);
             r.org_x[lane] = ray.origin.x;
             r.org_y[lane] = ray.origin.y;
@@ -539,7 +560,8 @@ impl Scene {
         // SAFETY: RTCRay8 is plain old data; active lanes are filled below.
         let mut packet: sys::RTCRay8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid[lane] = -1;
+            // A ray Embree would reject stays inactive: not occluded.
+            valid[lane] = if embree_accepts(ray) { -1 } else { 0 };
             packet.org_x[lane] = ray.origin.x;
             packet.org_y[lane] = ray.origin.y;
             packet.org_z[lane] = ray.origin.z;
