@@ -53,10 +53,11 @@ pub fn identity(
         ("max-depth", settings.max_depth.to_string()),
         ("seed", settings.seed.to_string()),
         ("integrator", format!("{:?}", settings.integrator)),
+        // The field of view before the eye: the default eye is derived from it.
+        ("fov", format!("{:?}", camera.vfov_degrees)),
         ("eye", v(camera.eye)),
         ("look-at", v(camera.look_at)),
         ("up", v(camera.up)),
-        ("fov", format!("{:?}", camera.vfov_degrees)),
         ("scene", format!("{:016x}", scene_hash(scene))),
     ]
     .into_iter()
@@ -66,7 +67,9 @@ pub fn identity(
 
 /// FNV-1a over bytes: small, stable across Rust versions and platforms.
 fn fnv1a(hash: u64, bytes: &[u8]) -> u64 {
-    bytes.iter().fold(hash, |h, &b| (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3))
+    bytes.iter().fold(hash, |h, &b| {
+        (h ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    })
 }
 
 const FNV_OFFSET: u64 = 0xcbf2_9ce4_8422_2325;
@@ -187,7 +190,12 @@ pub fn load(
             });
         }
     }
-    let field = |k: &str| identity.iter().find(|(key, _)| key == k).and_then(|(_, v)| v.parse().ok());
+    let field = |k: &str| {
+        identity
+            .iter()
+            .find(|(key, _)| key == k)
+            .and_then(|(_, v)| v.parse().ok())
+    };
     let (Some(width), Some(height)) = (field("width"), field("height")) else {
         return Err(invalid("settings lack the image size"));
     };

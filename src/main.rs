@@ -20,10 +20,10 @@ use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
 use ember::accel::{Accel, EmbreeAccel};
+use ember::checkpoint;
 use ember::embree::{BuildQuality, Device};
 use ember::film;
 use ember::integrator::IntegratorKind;
-use ember::checkpoint;
 use ember::render::{self, Progress, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, CameraSettings, Scene};
 
@@ -193,7 +193,10 @@ fn default_checkpoint(output: &Path) -> PathBuf {
 
 /// A device configuration plus `EMBER_EMBREE_CONFIG`, if set.
 fn embree_config(threads: Option<u32>) -> String {
-    let mut parts: Vec<String> = threads.map(|n| format!("threads={n}")).into_iter().collect();
+    let mut parts: Vec<String> = threads
+        .map(|n| format!("threads={n}"))
+        .into_iter()
+        .collect();
     if let Ok(extra) = std::env::var("EMBER_EMBREE_CONFIG") {
         parts.push(extra);
     }
@@ -332,11 +335,22 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
             String::new()
         }
     );
-    let control_checkpoint = args
-        .checkpoint_every
-        .map(|s| (Duration::from_secs_f64(s), &periodic as &(dyn Fn(&Progress) + Sync)));
+    let control_checkpoint = args.checkpoint_every.map(|s| {
+        (
+            Duration::from_secs_f64(s),
+            &periodic as &(dyn Fn(&Progress) + Sync),
+        )
+    });
     let (progress, stats) = pool.install(|| {
-        render_with_progress(&scene, &accel, &camera, &settings, progress, &stop, control_checkpoint)
+        render_with_progress(
+            &scene,
+            &accel,
+            &camera,
+            &settings,
+            progress,
+            &stop,
+            control_checkpoint,
+        )
     });
 
     let signal = stop.load(Ordering::SeqCst);
@@ -347,7 +361,11 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
         eprintln!(
             "interrupted by {} after {} of {} samples per pixel (at least {} in every pixel): \
              wrote the partial image {} and the checkpoint {} (continue with --resume)",
-            if signal == SIGTERM as usize { "SIGTERM" } else { "SIGINT" },
+            if signal == SIGTERM as usize {
+                "SIGTERM"
+            } else {
+                "SIGINT"
+            },
             progress.total_done() / pixels.max(1),
             settings.spp,
             progress.min_done(),

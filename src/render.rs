@@ -157,7 +157,8 @@ fn split_into_tiles(progress: &Progress) -> Vec<Mutex<TileProgress>> {
                 done: Vec::with_capacity(n),
             };
             for y in y0..y0 + h {
-                let row = (y * progress.width + x0) as usize..(y * progress.width + x0 + w) as usize;
+                let row =
+                    (y * progress.width + x0) as usize..(y * progress.width + x0 + w) as usize;
                 tile.sums.extend_from_slice(&progress.sums[row.clone()]);
                 tile.kept.extend_from_slice(&progress.kept[row.clone()]);
                 tile.done.extend_from_slice(&progress.done[row]);
@@ -241,15 +242,13 @@ pub fn render_progressive<A: Accel>(
             scope.spawn(move || {
                 let (lock, wake) = finished;
                 let mut done = lock.lock().unwrap_or_else(|p| p.into_inner());
-                loop {
+                // Checked before each wait: the render may finish before this starts.
+                while !*done {
                     let (guard, timeout) = wake
                         .wait_timeout(done, interval)
                         .unwrap_or_else(|p| p.into_inner());
                     done = guard;
-                    if *done {
-                        break;
-                    }
-                    if timeout.timed_out() {
+                    if !*done && timeout.timed_out() {
                         write(&gather_tiles(settings.width, settings.height, tiles));
                     }
                 }
@@ -263,7 +262,8 @@ pub fn render_progressive<A: Accel>(
             };
             tiles.par_iter().for_each(|tile| {
                 let mut tile = tile.lock().unwrap_or_else(|p| p.into_inner());
-                let (r, d, taken) = render_tile(&tracer, camera, settings, &mut tile, target, control.stop);
+                let (r, d, taken) =
+                    render_tile(&tracer, camera, settings, &mut tile, target, control.stop);
                 rays.fetch_add(r, Ordering::Relaxed);
                 dropped.fetch_add(d, Ordering::Relaxed);
                 (control.on_samples)(taken);

@@ -78,9 +78,8 @@ fn numbers(odd: u32, n: usize) -> impl Strategy<Value = String> {
 }
 
 fn obj_line(odd: u32) -> impl Strategy<Value = String> {
-    let corners = |odd, lo, hi| {
-        prop::collection::vec(corner(odd), lo..hi).prop_map(|c| c.join(" "))
-    };
+    let corners =
+        |odd, lo, hi| prop::collection::vec(corner(odd), lo..hi).prop_map(|c| c.join(" "));
     prop_oneof![
         60 => numbers(odd, 3).prop_map(|n| format!("v {n}")),
         10 => numbers(odd, 2).prop_map(|n| format!("vt {n}")),
@@ -131,7 +130,11 @@ fn grammar_input(odd: u32) -> impl Strategy<Value = Input> {
         prop::collection::vec(mtl_text, if odd < 10 { 2..3 } else { 0..3 }),
     )
         .prop_map(|(prefix, lines, mtls)| Input {
-            obj: prefix.into_iter().chain(lines).collect::<Vec<_>>().join("\n"),
+            obj: prefix
+                .into_iter()
+                .chain(lines)
+                .collect::<Vec<_>>()
+                .join("\n"),
             mtl: MTL_NAMES.iter().map(|n| n.to_string()).zip(mtls).collect(),
         })
 }
@@ -142,7 +145,12 @@ const CORNELL_MTL: &str = include_str!("../meshes/CornellBox-Original.mtl");
 
 /// Byte-level mutations of the Cornell box: overwrite, insert, delete, duplicate.
 fn mutated_input() -> impl Strategy<Value = Input> {
-    let edit = (any::<prop::sample::Index>(), 0..4u8, any::<u8>(), 1usize..64);
+    let edit = (
+        any::<prop::sample::Index>(),
+        0..4u8,
+        any::<u8>(),
+        1usize..64,
+    );
     (
         prop::collection::vec(edit.clone(), 1..12),
         prop::collection::vec(edit, 0..6),
@@ -321,11 +329,22 @@ mod regressions {
     #[test]
     fn face_index_claiming_billions_fails_fast() {
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3000000000\n";
-        let err = load_obj_from_str(obj, &HashMap::new()).unwrap_err().to_string();
-        assert!(err.contains("<memory>.obj") && err.contains("line 4"), "{err}");
-        assert!(err.contains("3000000000") && err.contains("3 vertices in the file"), "{err}");
+        let err = load_obj_from_str(obj, &HashMap::new())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("<memory>.obj") && err.contains("line 4"),
+            "{err}"
+        );
+        assert!(
+            err.contains("3000000000") && err.contains("3 vertices in the file"),
+            "{err}"
+        );
         loads_or_errs("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -3000000000\n", &[]);
-        loads_or_errs("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 18446744073709551615\n", &[]);
+        loads_or_errs(
+            "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 18446744073709551615\n",
+            &[],
+        );
     }
 
     const TRIANGLE: &str = "mtllib a.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
@@ -364,7 +383,10 @@ mod regressions {
         loads_or_errs(&format!("{base}f 1/0/0 2/1/1 3/1/1\n"), &[]);
         // A relative index is resolved against what was read before it: two normals
         // exist in the file, but only one before the face.
-        let err = load_obj_from_str(&format!("{base}f 1//-2 2//1 3//1\nvn 0 0 1\n"), &HashMap::new());
+        let err = load_obj_from_str(
+            &format!("{base}f 1//-2 2//1 3//1\nvn 0 0 1\n"),
+            &HashMap::new(),
+        );
         assert!(err.unwrap_err().to_string().contains("1 normals before it"));
     }
 
@@ -386,12 +408,12 @@ mod regressions {
 
     #[test]
     fn in_memory_cornell_box_matches_the_file() {
-        let mtl = HashMap::from([(
-            "CornellBox-Original.mtl".to_owned(),
-            CORNELL_MTL.to_owned(),
-        )]);
+        let mtl = HashMap::from([("CornellBox-Original.mtl".to_owned(), CORNELL_MTL.to_owned())]);
         let (memory, _) = load_obj_from_str(CORNELL_OBJ, &mtl).unwrap();
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/meshes/CornellBox-Original.obj");
+        let path = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/meshes/CornellBox-Original.obj"
+        );
         let (disk, _) = ember::scene::load_obj(path.as_ref()).unwrap();
         assert_eq!(memory.mesh.triangles, disk.mesh.triangles);
         assert_eq!(memory.mesh.positions, disk.mesh.positions);

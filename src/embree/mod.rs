@@ -187,7 +187,9 @@ impl Device {
             let code = unsafe { sys::rtcGetDeviceError(ptr::null_mut()) };
             return Err(EmbreeError {
                 kind: EmbreeErrorKind::from_code(code).unwrap_or(EmbreeErrorKind::Unknown),
-                message: format!("cannot create a device with configuration {config:?}"),
+                message: format!(
+                    "cannot create a device: Embree rejects the configuration {config:?}"
+                ),
             });
         }
         let callbacks = Box::new(Callbacks {
@@ -220,7 +222,13 @@ impl Device {
             .lock()
             .unwrap_or_else(|p| p.into_inner());
         match slot.take() {
-            Some(e) => Err(e),
+            Some(mut e) => {
+                let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
+                if e.kind == EmbreeErrorKind::OutOfMemory && limit != i64::MAX {
+                    e.message += &format!(" (the memory limit is {limit} bytes)");
+                }
+                Err(e)
+            }
             None => Ok(()),
         }
     }

@@ -136,7 +136,10 @@ enum Sources<'a> {
 impl Sources<'_> {
     /// The text of the material library `name`, and the directory its textures are
     /// relative to (disk only).
-    fn read_mtl(&self, name: &Path) -> Result<(PathBuf, String, Option<PathBuf>), (PathBuf, String)> {
+    fn read_mtl(
+        &self,
+        name: &Path,
+    ) -> Result<(PathBuf, String, Option<PathBuf>), (PathBuf, String)> {
         match self {
             Sources::Disk { dir } => {
                 let path = dir.join(name);
@@ -273,7 +276,10 @@ fn load_obj_text(
     })?;
 
     let triangle_count: u64 = models.iter().map(|m| m.mesh.indices.len() as u64 / 3).sum();
-    let vertex_count: u64 = models.iter().map(|m| m.mesh.positions.len() as u64 / 3).sum();
+    let vertex_count: u64 = models
+        .iter()
+        .map(|m| m.mesh.positions.len() as u64 / 3)
+        .sum();
     check_counts(triangle_count, vertex_count).map_err(|what| SceneError::TooLarge {
         path: path.to_owned(),
         what,
