@@ -297,6 +297,9 @@ impl Device {
             kind: EmbreeErrorKind::InvalidArgument,
             message,
         };
+        if triangles.is_empty() {
+            return Err(invalid("a scene needs at least one triangle".into()));
+        }
         if let Some(bad) = triangles
             .iter()
             .flatten()
@@ -306,6 +309,23 @@ impl Device {
                 "vertex index {bad} out of range for {} vertices",
                 vertices.len()
             )));
+        }
+        // Refuse buffers past the memory limit here rather than let Embree's monitor do
+        // it: Embree 3.13.5 leaks a device reference when a buffer allocation fails
+        // inside `rtcSetNewGeometryBuffer` (seen under valgrind), while a refusal during
+        // the BVH build (below, in `rtcCommitScene`) cleans up fully.
+        let buffer_bytes = (vertices.len() * 12 + 16 + triangles.len() * 12) as i64;
+        let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
+        if (self.bytes_in_use() as i64).saturating_add(buffer_bytes) > limit {
+            return Err(EmbreeError {
+                kind: EmbreeErrorKind::OutOfMemory,
+                message: format!(
+                    "{} vertices and {} triangles need {buffer_bytes} bytes of buffers \
+                     (the memory limit is {limit} bytes)",
+                    vertices.len(),
+                    triangles.len()
+                ),
+            });
         }
         let _ = self.take_error();
         let device = self.handle.raw;
