@@ -24,7 +24,7 @@ use ember::checkpoint;
 use ember::embree::{BuildQuality, Device};
 use ember::film;
 use ember::integrator::IntegratorKind;
-use ember::render::{self, Progress, RenderControl, RenderSettings, RenderStats};
+use ember::render::{self, Checkpointing, Progress, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, CameraSettings, Scene};
 
 #[derive(Parser)]
@@ -335,11 +335,9 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
             String::new()
         }
     );
-    let control_checkpoint = args.checkpoint_every.map(|s| {
-        (
-            Duration::from_secs_f64(s),
-            &periodic as &(dyn Fn(&Progress) + Sync),
-        )
+    let control_checkpoint = args.checkpoint_every.map(|s| Checkpointing {
+        every: Duration::from_secs_f64(s),
+        write: &periodic,
     });
     let (progress, stats) = pool.install(|| {
         render_with_progress(
@@ -405,7 +403,7 @@ fn render_with_progress<A: Accel>(
     settings: &RenderSettings,
     progress: Progress,
     stop: &AtomicUsize,
-    checkpoint: Option<(Duration, &(dyn Fn(&Progress) + Sync))>,
+    checkpoint: Option<Checkpointing<'_>>,
 ) -> (Progress, RenderStats) {
     let total = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
     let bar = ProgressBar::new(total);

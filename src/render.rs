@@ -132,9 +132,16 @@ pub struct RenderControl<'a> {
     /// Samples per pixel of the first pass; each later pass doubles the total, so an
     /// interrupted render has a whole-image preview early. `u32::MAX`: one pass.
     pub first_pass_spp: u32,
-    /// Called with a consistent snapshot of the progress every given interval, from a
-    /// thread of its own, while the workers go on.
-    pub checkpoint: Option<(Duration, &'a (dyn Fn(&Progress) + Sync))>,
+    /// Periodic snapshots of the progress, if wanted.
+    pub checkpoint: Option<Checkpointing<'a>>,
+}
+
+/// `write` is called with a consistent snapshot of the progress every `every`, from a
+/// thread of its own, while the workers go on.
+#[derive(Clone, Copy)]
+pub struct Checkpointing<'a> {
+    pub every: Duration,
+    pub write: &'a (dyn Fn(&Progress) + Sync),
 }
 
 /// One tile's share of a [`Progress`], owned by one worker at a time.
@@ -237,7 +244,7 @@ pub fn render_progressive<A: Accel>(
     let finished = (Mutex::new(false), Condvar::new());
 
     std::thread::scope(|scope| {
-        if let Some((interval, write)) = control.checkpoint {
+        if let Some(Checkpointing { every, write }) = control.checkpoint {
             let (tiles, finished) = (&tiles, &finished);
             scope.spawn(move || {
                 let (lock, wake) = finished;
@@ -245,7 +252,7 @@ pub fn render_progressive<A: Accel>(
                 // Checked before each wait: the render may finish before this starts.
                 while !*done {
                     let (guard, timeout) = wake
-                        .wait_timeout(done, interval)
+                        .wait_timeout(done, every)
                         .unwrap_or_else(|p| p.into_inner());
                     done = guard;
                     if !*done && timeout.timed_out() {

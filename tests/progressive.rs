@@ -10,7 +10,9 @@ use ember::accel::EmbreeAccel;
 use ember::checkpoint;
 use ember::embree::{BuildQuality, Device};
 use ember::integrator::IntegratorKind;
-use ember::render::{render, render_progressive, Progress, RenderControl, RenderSettings};
+use ember::render::{
+    render, render_progressive, Checkpointing, Progress, RenderControl, RenderSettings,
+};
 use ember::scene::{load_obj, Camera, CameraSettings, Scene};
 
 struct Fixture {
@@ -192,7 +194,10 @@ fn periodic_checkpoints_are_whole_files() {
         stop: &stop,
         on_samples: &|_| {},
         first_pass_spp: 1,
-        checkpoint: Some((Duration::from_millis(1), &write)),
+        checkpoint: Some(Checkpointing {
+            every: Duration::from_millis(1),
+            write: &write,
+        }),
     };
     let mut settings = f.settings;
     settings.spp = 40;

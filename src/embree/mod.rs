@@ -235,7 +235,7 @@ impl Device {
 
     fn property(&self, prop: sys::RTCDeviceProperty) -> isize {
         // SAFETY: a live device and a property id from the headers it was built with.
-        unsafe { sys::rtcGetDeviceProperty(self.handle.raw, prop) as isize }
+        unsafe { sys::rtcGetDeviceProperty(self.handle.raw, prop) }
     }
 
     /// Bytes Embree currently holds on this device (all scenes), from its memory monitor.
