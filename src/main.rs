@@ -191,6 +191,16 @@ fn default_checkpoint(output: &Path) -> PathBuf {
     PathBuf::from(name)
 }
 
+/// The byte count in environment variable `name`, if set; anything but a whole number
+/// is an error rather than silently ignored.
+fn env_bytes(name: &str) -> Result<Option<u64>> {
+    match std::env::var(name) {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Ok(v) if v.trim().parse::<u64>().is_ok() => Ok(v.trim().parse().ok()),
+        _ => bail!("{name} must be a whole number of bytes"),
+    }
+}
+
 /// A device configuration plus `EMBER_EMBREE_CONFIG`, if set.
 fn embree_config(threads: Option<u32>) -> String {
     let mut parts: Vec<String> = threads
@@ -210,6 +220,8 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
         .unwrap_or_else(|| default_output(&args.scene));
     // Fail on an unwritable or unknown output before spending time on the render.
     film::check_writable(&output)?;
+    env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
+    let embree_limit = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
     let checkpoint_path = args
         .checkpoint
         .clone()
@@ -280,11 +292,8 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
     }
     let pool = pool.build().context("cannot start worker threads")?;
     let device = Device::new(&embree_config(args.threads))?;
-    if let Some(limit) = std::env::var("EMBER_EMBREE_MEMORY_LIMIT")
-        .ok()
-        .and_then(|v| v.trim().parse().ok())
-    {
-        device.set_memory_limit(Some(limit));
+    if let Some(limit) = embree_limit {
+        device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
     }
     let accel = EmbreeAccel::build(
         &device,
