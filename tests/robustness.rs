@@ -336,3 +336,37 @@ fn a_memory_limit_that_is_not_a_number_is_an_error() {
         );
     }
 }
+
+#[test]
+fn a_texture_larger_than_memory_is_refused_naming_its_size() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    std::fs::write(
+        d.join("t.obj"),
+        "mtllib t.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("t.mtl"), "newmtl m\nKd 1 1 1\nmap_Kd big.png\n").unwrap();
+    image::RgbImage::new(2000, 1500)
+        .save(d.join("big.png"))
+        .unwrap();
+    let out = d.join("o.png");
+    let line = error_line(&ember(
+        &[
+            "render",
+            d.join("t.obj").to_str().unwrap(),
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "-o",
+            out.to_str().unwrap(),
+        ],
+        // Room for the scene and the image, not for 2000 × 1500 × 24 bytes = 68.7 MiB.
+        &[("EMBER_MEMORY_LIMIT", "50000000")],
+    ));
+    assert!(
+        line.contains("big.png") && line.contains("a 2000x1500 texture needs 68.7 MiB"),
+        "{line}"
+    );
+}

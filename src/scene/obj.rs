@@ -498,6 +498,13 @@ fn load_texture(path: &Path) -> Result<Texture, String> {
         .map_err(|e| e.to_string())?
         .decode()
         .map_err(|e| e.to_string())?;
+    // The decoder caps its own allocation (the image crate's default limit, 512 MiB);
+    // the linear copies below take up to 24 bytes per texel on top.
+    let texels = u64::from(image.width()) * u64::from(image.height());
+    crate::limits::check_fits(
+        &format!("a {}x{} texture", image.width(), image.height()),
+        texels * 24,
+    )?;
     let srgb = !matches!(
         image.color(),
         image::ColorType::Rgb32F | image::ColorType::Rgba32F
