@@ -370,3 +370,49 @@ fn a_texture_larger_than_memory_is_refused_naming_its_size() {
         "{line}"
     );
 }
+
+#[test]
+fn a_killed_render_leaves_a_whole_checkpoint() {
+    use ember::checkpoint;
+    use ember::integrator::IntegratorKind;
+    use ember::render::RenderSettings;
+    use ember::scene::{load_obj, CameraSettings};
+
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("k.png");
+    let ckpt = dir.path().join("k.png.checkpoint");
+    let mut child = Command::new(EMBER)
+        .args(["render", cornell().to_str().unwrap(), "-o"])
+        .arg(&out)
+        .args([
+            "--width", "24", "--height", "20", "--spp", "1000000", "--seed", "5",
+        ])
+        .args(["--threads", "1", "--checkpoint-every", "0.05"])
+        .stderr(Stdio::null())
+        .spawn()
+        .unwrap();
+    // Wait for the first checkpoint (an event, not a deadline), then a few more writes.
+    while !ckpt.exists() {
+        assert!(child.try_wait().unwrap().is_none(), "ember ended early");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    // SIGKILL: no handler runs; only what was written atomically before survives.
+    child.kill().unwrap();
+    child.wait().unwrap();
+
+    let (scene, _) = load_obj(&cornell()).unwrap();
+    let (lo, hi) = scene.bounds();
+    let settings = RenderSettings {
+        width: 24,
+        height: 20,
+        spp: 1_000_000,
+        max_depth: 8,
+        seed: 5,
+        integrator: IntegratorKind::Bsdf,
+    };
+    let identity = checkpoint::identity(&scene, &CameraSettings::framing(lo, hi, 40.0), &settings);
+    let progress = checkpoint::load(&ckpt, &identity, settings.spp).unwrap();
+    assert!(progress.total_done() > 0);
+    assert!(!out.exists());
+}
