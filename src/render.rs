@@ -261,6 +261,16 @@ pub fn render_progressive<A: Accel>(
                 }
             });
         }
+        // Wakes the checkpoint thread to end when this scope's work ends, even by a
+        // panic in a worker: otherwise the scope would wait for that thread forever.
+        struct Finish<'f>(&'f (Mutex<bool>, Condvar));
+        impl Drop for Finish<'_> {
+            fn drop(&mut self) {
+                *self.0 .0.lock().unwrap_or_else(|p| p.into_inner()) = true;
+                self.0 .1.notify_all();
+            }
+        }
+        let _finish = Finish(&finished);
         while target < settings.spp && control.stop.load(Ordering::Relaxed) == 0 {
             target = if target == 0 {
                 control.first_pass_spp.clamp(1, settings.spp)
@@ -276,8 +286,6 @@ pub fn render_progressive<A: Accel>(
                 (control.on_samples)(taken);
             });
         }
-        *finished.0.lock().unwrap_or_else(|p| p.into_inner()) = true;
-        finished.1.notify_all();
     });
 
     let progress = gather_tiles(settings.width, settings.height, &tiles);
