@@ -1,10 +1,10 @@
 #!/usr/bin/env bash
 # Installs what ember needs to build on Debian/Ubuntu, and nothing that is already there:
 # Embree (libembree-dev: Embree 3 on Debian 12, Embree 4 on Debian 13+), libclang for
-# bindgen, pkg-config. Idempotent: a second run installs nothing and exits 0.
+# bindgen, pkg-config, valgrind (for the FFI memory checks). Idempotent: a second run installs nothing and exits 0.
 set -euo pipefail
 
-packages=(libembree-dev libclang-dev pkg-config)
+packages=(libembree-dev libclang-dev pkg-config valgrind)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

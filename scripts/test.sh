@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Runs every check ember has: formatting, lints, the whole test suite against the
-# system's Embree, and the Embree tests again against Embree 4 (built from
+# system's Embree, a bounded fuzzing run, the FFI wrapper under valgrind, and the Embree tests again against Embree 4 (built from
 # ../shared/embree4/setup.sh when that rig is beside the repository).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -11,12 +11,17 @@ echo "== cargo clippy" >&2
 cargo clippy --release --all-targets -- -D warnings
 echo "== cargo test (system Embree)" >&2
 cargo test --release
+echo "== fuzzing OBJ/MTL loading for ${EMBER_CI_FUZZ_SECONDS:-60} s" >&2
+bash .ci/fuzz.sh "${EMBER_CI_FUZZ_SECONDS:-60}"
+echo "== Embree wrapper under valgrind" >&2
+bash .ci/valgrind.sh
 
 rig=../shared/embree4/setup.sh
 if [[ -f $rig ]]; then
   echo "== Embree 4 leg" >&2
   bash "$rig" "$PWD/.embree4" >/dev/null
-  EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test render
+  EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test embree_wrapper \
+    --test render --test robustness
 else
   echo "== Embree 4 leg skipped: $rig not found" >&2
 fi

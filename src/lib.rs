@@ -7,9 +7,11 @@
 //! the image over threads into a [`film::Film`], which is written as PNG, EXR or HDR.
 
 pub mod accel;
+pub mod checkpoint;
 pub mod embree;
 pub mod film;
 pub mod integrator;
+pub mod limits;
 pub mod render;
 pub mod sampling;
 pub mod scene;

@@ -1,18 +1,30 @@
 //! The `ember` command line: `ember render`, `ember info`.
+//!
+//! Environment variables (for tests and for running under a budget):
+//! - `EMBER_MEMORY_LIMIT=BYTES`: memory ember may assume is available (default:
+//!   `MemAvailable` from /proc/meminfo); scenes and images that need more are refused.
+//! - `EMBER_EMBREE_CONFIG=STRING`: appended to the Embree device configuration.
+//! - `EMBER_EMBREE_MEMORY_LIMIT=BYTES`: caps what Embree may allocate; a scene build
+//!   that needs more fails with Embree's out-of-memory error.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::Arc;
+use std::time::Duration;
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
+use signal_hook::consts::{SIGINT, SIGTERM};
 
 use ember::accel::{Accel, EmbreeAccel};
+use ember::checkpoint;
 use ember::embree::{BuildQuality, Device};
 use ember::film::{self, Film};
 use ember::integrator::IntegratorKind;
-use ember::render::{self, RenderSettings, RenderStats};
+use ember::render::{self, Checkpointing, Progress, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, CameraSettings, Scene};
 
 #[derive(Parser)]
@@ -78,6 +90,29 @@ struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorKind::default())]
     integrator: IntegratorKind,
+    /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
+    /// killed render loses at most that much work; the final state is kept too.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    checkpoint_every: Option<f64>,
+    /// Checkpoint file [default: the output path with ".checkpoint" appended].
+    #[arg(long, value_name = "FILE")]
+    checkpoint: Option<PathBuf>,
+    /// Continue from the checkpoint file to --spp samples per pixel. The scene, camera,
+    /// size, seed, depth and integrator must be the ones the checkpoint was made with.
+    #[arg(long)]
+    resume: bool,
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    let v: f64 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of seconds"))?;
+    if v > 0.0 && v <= 1e9 {
+        Ok(v)
+    } else {
+        Err(format!("{v} is not a positive number of seconds"))
+    }
 }
 
 #[derive(Args)]
@@ -134,11 +169,11 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render_command(args),
-        Command::Compare(args) => compare_command(args),
-        Command::Info => info_command(),
+        Command::Compare(args) => compare_command(args).map(|()| ExitCode::SUCCESS),
+        Command::Info => info_command().map(|()| ExitCode::SUCCESS),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
             ExitCode::FAILURE
@@ -151,13 +186,74 @@ fn default_output(scene: &Path) -> PathBuf {
     PathBuf::from(stem).with_extension("png")
 }
 
-fn render_command(args: RenderArgs) -> Result<()> {
+/// `out.png` -> `out.partial.png`: where an interrupted render's image goes, so that a
+/// partial image is never mistaken for the finished one.
+fn partial_output(output: &Path) -> PathBuf {
+    let ext = output
+        .extension()
+        .map(|e| e.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    output.with_extension(format!("partial.{ext}"))
+}
+
+fn default_checkpoint(output: &Path) -> PathBuf {
+    let mut name = output.as_os_str().to_owned();
+    name.push(".checkpoint");
+    PathBuf::from(name)
+}
+
+/// The byte count in environment variable `name`, if set; anything but a whole number
+/// is an error rather than silently ignored.
+fn env_bytes(name: &str) -> Result<Option<u64>> {
+    match std::env::var(name) {
+        Err(std::env::VarError::NotPresent) => Ok(None),
+        Ok(v) if v.trim().parse::<u64>().is_ok() => Ok(v.trim().parse().ok()),
+        _ => bail!("{name} must be a whole number of bytes"),
+    }
+}
+
+/// A device configuration plus `EMBER_EMBREE_CONFIG`, if set.
+fn embree_config(threads: Option<u32>) -> String {
+    let mut parts: Vec<String> = threads
+        .map(|n| format!("threads={n}"))
+        .into_iter()
+        .collect();
+    if let Ok(extra) = std::env::var("EMBER_EMBREE_CONFIG") {
+        parts.push(extra);
+    }
+    parts.join(",")
+}
+
+fn render_command(args: RenderArgs) -> Result<ExitCode> {
     let output = args
         .output
         .clone()
         .unwrap_or_else(|| default_output(&args.scene));
     // Fail on an unwritable or unknown output before spending time on the render.
     film::check_writable(&output)?;
+    env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
+    let embree_limit = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
+    let checkpoint_path = args
+        .checkpoint
+        .clone()
+        .unwrap_or_else(|| default_checkpoint(&output));
+    if args.resume && !checkpoint_path.is_file() {
+        bail!(
+            "cannot resume: there is no checkpoint {}",
+            checkpoint_path.display()
+        );
+    }
+    // Refuse images that cannot fit before loading anything. (width × height × spp fits
+    // in u64 for every value the flags accept: at most 2^28 × 10^6.)
+    let pixels = u64::from(args.width) * u64::from(args.height);
+    pixels
+        .checked_mul(u64::from(args.spp))
+        .context("width × height × spp overflows")?;
+    ember::limits::check_fits(
+        &format!("a {}x{} image", args.width, args.height),
+        render::render_memory_bytes(args.width, args.height),
+    )
+    .map_err(anyhow::Error::msg)?;
 
     let (scene, report) = load_obj(&args.scene)?;
     let (lo, hi) = scene.bounds();
@@ -187,11 +283,10 @@ fn render_command(args: RenderArgs) -> Result<()> {
         pool = pool.num_threads(n as usize);
     }
     let pool = pool.build().context("cannot start worker threads")?;
-    let device_config = args
-        .threads
-        .map(|n| format!("threads={n}"))
-        .unwrap_or_default();
-    let device = Device::new(&device_config)?;
+    let device = Device::new(&embree_config(args.threads))?;
+    if let Some(limit) = embree_limit {
+        device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
+    }
     let accel = EmbreeAccel::build(
         &device,
         &scene.mesh.positions,
@@ -200,6 +295,36 @@ fn render_command(args: RenderArgs) -> Result<()> {
     )
     .context("cannot build the Embree scene")?;
 
+    let identity = checkpoint::identity(&scene, &camera_settings, &settings);
+    let progress = if args.resume {
+        checkpoint::load(&checkpoint_path, &identity, settings.spp)?
+    } else {
+        Progress::new(settings.width, settings.height)
+    };
+    let resumed_from = progress.min_done();
+
+    // From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a
+    // second one exits at once. (Before, the default action ends the process: there
+    // is nothing to save yet.)
+    let stop = Arc::new(AtomicUsize::new(0));
+    let stopping = Arc::new(AtomicBool::new(false));
+    for signal in [SIGINT, SIGTERM] {
+        // The conditional shutdown runs first: on the first signal `stopping` is still
+        // false, so only the flags below are set.
+        signal_hook::flag::register_conditional_shutdown(signal, 128 + signal, stopping.clone())
+            .and_then(|_| signal_hook::flag::register(signal, stopping.clone()))
+            .and_then(|_| signal_hook::flag::register_usize(signal, stop.clone(), signal as usize))
+            .context("cannot install the signal handlers")?;
+    }
+    let save_checkpoint = |progress: &Progress| -> Result<()> {
+        checkpoint::save(&checkpoint_path, &identity, progress)
+            .context("cannot write the checkpoint")
+    };
+    let periodic = |progress: &Progress| {
+        if let Err(e) = save_checkpoint(progress) {
+            eprintln!("warning: {e:#}");
+        }
+    };
     // Only now that every input has been checked: a failing run prints one line.
     for warning in &report.warnings {
         eprintln!("warning: {}: {warning}", args.scene.display());
@@ -220,8 +345,59 @@ fn render_command(args: RenderArgs) -> Result<()> {
         }
     );
 
-    let (film, stats) = pool.install(|| render_with_progress(&scene, &accel, &camera, &settings));
-    film.save(&output)?;
+    eprintln!(
+        "rendering {}x{} at {} spp{}",
+        settings.width,
+        settings.height,
+        settings.spp,
+        if args.resume {
+            format!(", resuming from {resumed_from} spp")
+        } else {
+            String::new()
+        }
+    );
+    let control_checkpoint = args.checkpoint_every.map(|s| Checkpointing {
+        every: Duration::from_secs_f64(s),
+        write: &periodic,
+    });
+    let (progress, stats) = pool.install(|| {
+        render_with_progress(
+            &scene,
+            &accel,
+            &camera,
+            &settings,
+            progress,
+            &stop,
+            control_checkpoint,
+        )
+    });
+
+    let signal = stop.load(Ordering::SeqCst);
+    if signal != 0 && progress.min_done() < settings.spp {
+        let partial = partial_output(&output);
+        progress.film().save(&partial)?;
+        save_checkpoint(&progress)?;
+        eprintln!(
+            "interrupted by {} after {} of {} samples per pixel (at least {} in every pixel): \
+             wrote the partial image {} and the checkpoint {} (continue with --resume)",
+            if signal == SIGTERM as usize {
+                "SIGTERM"
+            } else {
+                "SIGINT"
+            },
+            progress.total_done() / pixels.max(1),
+            settings.spp,
+            progress.min_done(),
+            partial.display(),
+            checkpoint_path.display()
+        );
+        return Ok(ExitCode::from((128 + signal).min(255) as u8));
+    }
+    progress.film().save(&output)?;
+    if args.checkpoint_every.is_some() || args.resume {
+        // Keep the final state: a later --resume with a higher --spp refines it.
+        save_checkpoint(&progress)?;
+    }
     eprintln!(
         "wrote {}: {}x{}, {} spp, {} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{}",
         output.display(),
@@ -238,7 +414,7 @@ fn render_command(args: RenderArgs) -> Result<()> {
             String::new()
         }
     );
-    Ok(())
+    Ok(ExitCode::SUCCESS)
 }
 
 fn render_with_progress<A: Accel>(
@@ -246,15 +422,26 @@ fn render_with_progress<A: Accel>(
     accel: &A,
     camera: &ember::scene::Camera,
     settings: &RenderSettings,
-) -> (Film, RenderStats) {
-    let bar = ProgressBar::new(u64::from(settings.width) * u64::from(settings.height));
+    progress: Progress,
+    stop: &AtomicUsize,
+    checkpoint: Option<Checkpointing<'_>>,
+) -> (Progress, RenderStats) {
+    let total = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+    let bar = ProgressBar::new(total);
+    bar.set_position(progress.total_done());
     bar.set_style(
         ProgressStyle::with_template(
             "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
         )
         .expect("static template is valid"),
     );
-    let result = render::render(scene, accel, camera, settings, &|pixels| bar.inc(pixels));
+    let control = RenderControl {
+        stop,
+        on_samples: &|samples| bar.inc(samples),
+        first_pass_spp: 1,
+        checkpoint,
+    };
+    let result = render::render_progressive(scene, accel, camera, settings, progress, &control);
     bar.finish_and_clear();
     result
 }

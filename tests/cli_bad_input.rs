@@ -102,7 +102,7 @@ fn index_zero() {
     render_files(
         &[("scene.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 0 1 2\n")],
         &[],
-        "out of bounds",
+        "line 4: index 0 is invalid",
     );
 }
 
@@ -111,7 +111,7 @@ fn index_past_the_end() {
     render_files(
         &[("scene.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 4\n")],
         &[],
-        "out of bounds",
+        "out of range",
     );
 }
 
@@ -120,7 +120,7 @@ fn relative_index_before_the_start() {
     render_files(
         &[("scene.obj", b"v 0 0 0\nv 1 0 0\nv 0 1 0\nf -1 -2 -4\n")],
         &[],
-        "out of bounds",
+        "out of range",
     );
 }
 
@@ -132,7 +132,7 @@ fn normal_index_out_of_range() {
             b"v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1\nf 1//1 2//1 3//2\n",
         )],
         &[],
-        "out of bounds",
+        "out of range",
     );
 }
 

@@ -187,7 +187,9 @@ impl Device {
             let code = unsafe { sys::rtcGetDeviceError(ptr::null_mut()) };
             return Err(EmbreeError {
                 kind: EmbreeErrorKind::from_code(code).unwrap_or(EmbreeErrorKind::Unknown),
-                message: format!("cannot create a device with configuration {config:?}"),
+                message: format!(
+                    "cannot create a device: Embree rejects the configuration {config:?}"
+                ),
             });
         }
         let callbacks = Box::new(Callbacks {
@@ -220,7 +222,13 @@ impl Device {
             .lock()
             .unwrap_or_else(|p| p.into_inner());
         match slot.take() {
-            Some(e) => Err(e),
+            Some(mut e) => {
+                let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
+                if e.kind == EmbreeErrorKind::OutOfMemory && limit != i64::MAX {
+                    e.message += &format!(" (the memory limit is {limit} bytes)");
+                }
+                Err(e)
+            }
             None => Ok(()),
         }
     }
@@ -289,6 +297,9 @@ impl Device {
             kind: EmbreeErrorKind::InvalidArgument,
             message,
         };
+        if triangles.is_empty() {
+            return Err(invalid("a scene needs at least one triangle".into()));
+        }
         if let Some(bad) = triangles
             .iter()
             .flatten()
@@ -298,6 +309,23 @@ impl Device {
                 "vertex index {bad} out of range for {} vertices",
                 vertices.len()
             )));
+        }
+        // Refuse buffers past the memory limit here rather than let Embree's monitor do
+        // it: Embree 3.13.5 leaks a device reference when a buffer allocation fails
+        // inside `rtcSetNewGeometryBuffer` (seen under valgrind), while a refusal during
+        // the BVH build (below, in `rtcCommitScene`) cleans up fully.
+        let buffer_bytes = (vertices.len() * 12 + 16 + triangles.len() * 12) as i64;
+        let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
+        if (self.bytes_in_use() as i64).saturating_add(buffer_bytes) > limit {
+            return Err(EmbreeError {
+                kind: EmbreeErrorKind::OutOfMemory,
+                message: format!(
+                    "{} vertices and {} triangles need {buffer_bytes} bytes of buffers \
+                     (the memory limit is {limit} bytes)",
+                    vertices.len(),
+                    triangles.len()
+                ),
+            });
         }
         let _ = self.take_error();
         let device = self.handle.raw;
@@ -386,6 +414,20 @@ impl Drop for Scene {
     }
 }
 
+/// Embree's limit on ray origin and direction components (`FLT_LARGE` in its sources).
+const EMBREE_LARGE: f32 = 1.844e18;
+
+/// Whether Embree accepts the ray (its `RayK::valid()`): origin and direction components
+/// within ±1.844e18, and no NaN in `tnear`/`tfar`. Debian's Embree 3.13.5 is built with
+/// assertions and aborts the process on any other ray, and release builds give
+/// undefined results; ember answers such rays as misses instead. Hostile inputs make
+/// them: vertices near `f32::MAX`, or an `--eye` far outside the scene.
+#[inline]
+fn embree_accepts(ray: &Ray) -> bool {
+    let small = |v: glam::Vec3| v.abs().cmple(glam::Vec3::splat(EMBREE_LARGE)).all();
+    small(ray.origin) && small(ray.dir) && !ray.tmin.is_nan() && !ray.tmax.is_nan()
+}
+
 fn raw_ray(ray: &Ray) -> sys::RTCRay {
     sys::RTCRay {
         org_x: ray.origin.x,
@@ -448,6 +490,9 @@ impl Scene {
     /// Nearest hit of one ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        if !embree_accepts(ray) {
+            return None;
+        }
         let mut rayhit = sys::RTCRayHit {
             ray: raw_ray(ray),
             hit: empty_hit(),
@@ -475,6 +520,9 @@ impl Scene {
     /// Whether anything blocks the ray segment.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
+        if !embree_accepts(ray) {
+            return false;
+        }
         let mut raw = raw_ray(ray);
         #[cfg(embree3)]
         {
@@ -500,7 +548,8 @@ impl Scene {
         // is filled below.
         let mut packet: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid.0[lane] = -1;
+            // A ray Embree would reject stays inactive: a miss.
+            valid.0[lane] = if embree_accepts(ray) { -1 } else { 0 };
             let (r, h) = (&mut packet.ray, &mut packet.hit);
             r.org_x[lane] = ray.origin.x;
             r.org_y[lane] = ray.origin.y;
@@ -544,7 +593,8 @@ impl Scene {
         // SAFETY: RTCRay8 is plain old data; active lanes are filled below.
         let mut packet: sys::RTCRay8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid.0[lane] = -1;
+            // A ray Embree would reject stays inactive: not occluded.
+            valid.0[lane] = if embree_accepts(ray) { -1 } else { 0 };
             packet.org_x[lane] = ray.origin.x;
             packet.org_y[lane] = ray.origin.y;
             packet.org_z[lane] = ray.origin.z;

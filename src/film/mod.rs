@@ -202,6 +202,16 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FilmError> {
         .tempfile_in(parent_dir(path))
         .map_err(|e| fail(io_reason(&e)))?;
     file.write_all(bytes).map_err(|e| fail(e.to_string()))?;
+    // tempfile creates files readable by their owner only; an image or checkpoint is an
+    // ordinary file, so keep the mode of the file being replaced, or rw-r--r--.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o7777);
+        file.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(mode))
+            .map_err(|e| fail(e.to_string()))?;
+    }
     file.as_file().sync_all().map_err(|e| fail(e.to_string()))?;
     file.persist(path).map_err(|e| fail(e.error.to_string()))?;
     Ok(())

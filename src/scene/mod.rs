@@ -9,7 +9,9 @@ mod obj;
 pub use camera::{Camera, CameraSettings};
 pub use material::{Bsdf, Material, MtlValues, Scatter, Texture};
 pub use mesh::{SurfacePoint, TriangleMesh};
-pub use obj::{load_obj, LoadReport};
+pub use obj::{
+    check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
+};
 
 use glam::Vec3;
 use std::path::PathBuf;

@@ -43,11 +43,162 @@ fn strip_comments(text: &str) -> String {
     out
 }
 
+/// Makes every colour statement (`Ka`, `Kd`, `Ks`, `Ke`) carry three numbers before tobj
+/// sees it: the MTL spec allows a single value for grey (`Kd 0.5` = `Kd 0.5 0.5 0.5`),
+/// and tobj 4.0 panics on fewer than three words. Zero or two values are an error
+/// naming the line.
+fn normalize_mtl_colours(text: &str) -> Result<std::borrow::Cow<'_, str>, String> {
+    fn colour(line: &str) -> Option<(&str, Vec<&str>)> {
+        let mut words = line.split_whitespace();
+        let key = words.next()?;
+        matches!(key, "Ka" | "Kd" | "Ks" | "Ke").then(|| (key, words.take(3).collect()))
+    }
+    let needs_rewrite = text
+        .lines()
+        .any(|l| colour(l).is_some_and(|(_, values)| values.len() < 3));
+    if !needs_rewrite {
+        return Ok(text.into());
+    }
+    let mut out = String::with_capacity(text.len() + 64);
+    for (n, line) in text.lines().enumerate() {
+        match colour(line) {
+            Some((key, values)) if values.len() == 1 => {
+                let v = values[0];
+                out.push_str(&format!("{key} {v} {v} {v}"));
+            }
+            Some((key, values)) if values.len() < 3 => {
+                return Err(format!(
+                    "line {}: {key} needs three numbers (or one for grey), got {}",
+                    n + 1,
+                    values.len()
+                ));
+            }
+            _ => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    Ok(out.into())
+}
+
+/// Refuses face, line and point indices that point outside the file before tobj sees
+/// them: a positive index past the number of `v`, `vt` or `vn` statements in the whole
+/// file, or a negative (relative) one reaching before the first statement read so far.
+/// tobj 4.0 does unchecked arithmetic on indices (`vt * 2 + 1` on a relative index
+/// resolved below zero), which overflows. One pass over the text, so an index claiming
+/// billions fails at once, naming its line. Indices within bounds are left to tobj.
+fn check_face_indices(text: &str) -> Result<(), String> {
+    let kind_of = |line: &str| match line.split_whitespace().next() {
+        Some("v") => Some(0),
+        Some("vt") => Some(1),
+        Some("vn") => Some(2),
+        _ => None,
+    };
+    let mut total = [0u64; 3];
+    for line in text.lines() {
+        if let Some(k) = kind_of(line) {
+            total[k] += 1;
+        }
+    }
+    const WHAT: [&str; 3] = ["vertices", "texture coordinates", "normals"];
+    let mut so_far = [0u64; 3];
+    for (n, line) in text.lines().enumerate() {
+        if let Some(k) = kind_of(line) {
+            so_far[k] += 1;
+            continue;
+        }
+        let mut words = line.split_whitespace();
+        if !matches!(words.next(), Some("f" | "l" | "p")) {
+            continue;
+        }
+        for corner in words {
+            for (kind, index) in corner.split('/').enumerate().take(3) {
+                let Ok(i) = index.parse::<i64>() else {
+                    continue; // empty (`v//n`) or malformed: tobj reports the latter
+                };
+                if i == 0 {
+                    return Err(format!(
+                        "line {}: index 0 is invalid: OBJ indices start at 1",
+                        n + 1
+                    ));
+                }
+                let (limit, whence) = if i < 0 {
+                    (so_far[kind], "before it")
+                } else {
+                    (total[kind], "in the file")
+                };
+                if i.unsigned_abs() > limit {
+                    return Err(format!(
+                        "line {}: index {i} is out of range: there are {limit} {} {whence}",
+                        n + 1,
+                        WHAT[kind]
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
+}
+
 fn vec3(a: [f32; 3]) -> Vec3 {
     Vec3::from_array(a)
 }
 
+/// Where an OBJ's material libraries and textures are looked up: beside the file on
+/// disk, or in a map of in-memory MTL texts (which has no textures).
+enum Sources<'a> {
+    Disk { dir: PathBuf },
+    Memory { mtl: &'a HashMap<String, String> },
+}
+
+impl Sources<'_> {
+    /// The text of the material library `name`, and the directory its textures are
+    /// relative to (disk only).
+    fn read_mtl(
+        &self,
+        name: &Path,
+    ) -> Result<(PathBuf, String, Option<PathBuf>), (PathBuf, String)> {
+        match self {
+            Sources::Disk { dir } => {
+                let path = dir.join(name);
+                match read_text(&path) {
+                    Ok(text) => {
+                        let mtl_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+                        Ok((path, text, Some(mtl_dir)))
+                    }
+                    Err(e) => Err((path, e.to_string())),
+                }
+            }
+            Sources::Memory { mtl } => match mtl.get(&*name.to_string_lossy()) {
+                Some(text) => Ok((name.to_owned(), text.clone(), None)),
+                None => Err((name.to_owned(), "no such material library in memory".into())),
+            },
+        }
+    }
+
+    /// The directory named in error messages for a missing texture.
+    fn dir(&self) -> &Path {
+        match self {
+            Sources::Disk { dir } => dir,
+            Sources::Memory { .. } => Path::new(""),
+        }
+    }
+}
+
+/// Most bytes of memory one byte of OBJ text costs while loading and building: the text
+/// itself, tobj's arrays and index map, ember's mesh and Embree's BVH. Measured (peak
+/// resident memory of `ember render` minus that of the Cornell box) over file size:
+/// 5.1 for the Stanford bunny (2.4 MB), 2.1 for Sponza (7.6 MB); 8 leaves room for files
+/// with shorter lines.
+pub const MEMORY_PER_OBJ_BYTE: u64 = 8;
+
+/// Triangle and vertex indices are `u32` and Embree's primitive ids too; 2^31 triangles
+/// keeps every index and count well inside that.
+pub const MAX_TRIANGLES: u64 = 1 << 31;
+
 /// Loads an OBJ file, its material libraries and textures into a [`Scene`].
+///
+/// A file too large for the memory available (see [`crate::limits`]) is refused
+/// before it is read.
 pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_owned(),
@@ -59,31 +210,66 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
             path: path.to_owned(),
         });
     }
-    let text = strip_comments(&read_text(path).map_err(io)?);
+    let needed = meta.len().saturating_mul(MEMORY_PER_OBJ_BYTE);
+    if let Some(available) = crate::limits::available_memory() {
+        if needed > available {
+            return Err(SceneError::TooLarge {
+                path: path.to_owned(),
+                what: format!(
+                    "the file is {}, which needs about {} of memory to load and build; only {} is available",
+                    crate::limits::human_bytes(meta.len()),
+                    crate::limits::human_bytes(needed),
+                    crate::limits::human_bytes(available)
+                ),
+            });
+        }
+    }
+    let text = read_text(path).map_err(io)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
+    load_obj_text(path, &text, &Sources::Disk { dir })
+}
 
+/// Loads an OBJ scene from text in memory; `mtl` maps each `mtllib` name to the text of
+/// that material library. Textures (`map_Kd`) cannot be resolved and are an error.
+/// Errors name the OBJ as `<memory>.obj`.
+pub fn load_obj_from_str(
+    obj: &str,
+    mtl: &HashMap<String, String>,
+) -> Result<(Scene, LoadReport), SceneError> {
+    load_obj_text(Path::new("<memory>.obj"), obj, &Sources::Memory { mtl })
+}
+
+/// The one conversion from OBJ text to a scene, for files and in-memory text alike.
+fn load_obj_text(
+    path: &Path,
+    text: &str,
+    sources: &Sources<'_>,
+) -> Result<(Scene, LoadReport), SceneError> {
+    let text = &strip_comments(text);
+    let dir = sources.dir().to_path_buf();
     // tobj hands us each `mtllib` name; we read it ourselves so that a missing or
     // broken library is an error naming the file, not a silently grey scene.
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_dirs: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
     let load_mtl = |name: &Path| -> tobj::MTLLoadResult {
-        let mtl_path = dir.join(name);
-        let fail = |reason: String| {
+        let fail = |mtl_path: PathBuf, reason: String| {
             mtl_error.borrow_mut().get_or_insert(SceneError::Mtl {
-                path: mtl_path.clone(),
+                path: mtl_path,
                 obj: path.to_owned(),
                 reason,
             });
             Err(tobj::LoadError::OpenFileFailed)
         };
-        let text = match read_text(&mtl_path) {
-            Ok(t) => t,
-            Err(e) => return fail(e.to_string()),
+        let (mtl_path, text, mtl_dir) = match sources.read_mtl(name) {
+            Ok(found) => found,
+            Err((mtl_path, reason)) => return fail(mtl_path, reason),
         };
-        mtl_dirs
-            .borrow_mut()
-            .push(mtl_path.parent().unwrap_or(Path::new("")).to_path_buf());
-        tobj::load_mtl_buf(&mut text.as_bytes()).or_else(|e| fail(format!("{e}")))
+        mtl_dirs.borrow_mut().extend(mtl_dir);
+        let text = match normalize_mtl_colours(&text) {
+            Ok(t) => t,
+            Err(reason) => return fail(mtl_path, reason),
+        };
+        tobj::load_mtl_buf(&mut text.as_bytes()).or_else(|e| fail(mtl_path, format!("{e}")))
     };
     let options = tobj::LoadOptions {
         single_index: true,
@@ -91,6 +277,10 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
         ignore_points: true,
         ignore_lines: true,
     };
+    check_face_indices(text).map_err(|reason| SceneError::Obj {
+        path: path.to_owned(),
+        reason,
+    })?;
     let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl);
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
@@ -104,11 +294,25 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
         reason: format!("materials: {e}"),
     })?;
 
+    let triangle_count: u64 = models.iter().map(|m| m.mesh.indices.len() as u64 / 3).sum();
+    let vertex_count: u64 = models
+        .iter()
+        .map(|m| m.mesh.positions.len() as u64 / 3)
+        .sum();
+    check_counts(triangle_count, vertex_count).map_err(|what| SceneError::TooLarge {
+        path: path.to_owned(),
+        what,
+    })?;
+
     let mut report = LoadReport::default();
     let mut textures = Vec::new();
     let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
-    let mut search_dirs = vec![dir.clone()];
-    search_dirs.extend(mtl_dirs.into_inner());
+    // In memory there is no directory to search: every texture is "not found".
+    let mut search_dirs = Vec::new();
+    if let Sources::Disk { dir } = sources {
+        search_dirs.push(dir.clone());
+        search_dirs.extend(mtl_dirs.into_inner());
+    }
     let mut materials = Vec::with_capacity(tobj_materials.len() + 1);
     for m in &tobj_materials {
         let texture = match &m.diffuse_texture {
@@ -266,6 +470,22 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     Ok((scene, report))
 }
 
+/// Refuses meshes whose triangle or vertex count does not fit ember's `u32` indices.
+pub fn check_counts(triangles: u64, vertices: u64) -> Result<(), String> {
+    if triangles > MAX_TRIANGLES {
+        return Err(format!(
+            "{triangles} triangles is more than the {MAX_TRIANGLES} ember supports"
+        ));
+    }
+    if vertices > u64::from(u32::MAX) {
+        return Err(format!(
+            "{vertices} vertices is more than the {} ember supports",
+            u32::MAX
+        ));
+    }
+    Ok(())
+}
+
 fn non_finite(path: &Path, what: &'static str, index: usize, value: Vec3) -> SceneError {
     SceneError::NonFinite {
         path: path.to_owned(),
@@ -296,6 +516,13 @@ fn load_texture(path: &Path) -> Result<Texture, String> {
         .map_err(|e| e.to_string())?
         .decode()
         .map_err(|e| e.to_string())?;
+    // The decoder caps its own allocation (the image crate's default limit, 512 MiB);
+    // the linear copies below take up to 24 bytes per texel on top.
+    let texels = u64::from(image.width()) * u64::from(image.height());
+    crate::limits::check_fits(
+        &format!("a {}x{} texture", image.width(), image.height()),
+        texels * 24,
+    )?;
     let srgb = !matches!(
         image.color(),
         image::ColorType::Rgb32F | image::ColorType::Rgba32F
@@ -323,4 +550,52 @@ fn load_texture(path: &Path) -> Result<Texture, String> {
         height,
         texels,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn counts_past_u32_indices_are_refused() {
+        assert!(check_counts(MAX_TRIANGLES, u64::from(u32::MAX)).is_ok());
+        let err = check_counts(MAX_TRIANGLES + 1, 3).unwrap_err();
+        assert!(err.contains("2147483649 triangles"), "{err}");
+        let err = check_counts(1, u64::from(u32::MAX) + 1).unwrap_err();
+        assert!(err.contains("4294967296 vertices"), "{err}");
+    }
+
+    #[test]
+    fn face_indices_are_bounded_by_the_statements_they_refer_to() {
+        let ok = "v 0 0 0\nv 1 0 0\nf 1 2 3\nv 0 1 0\nf -3 -2 -1\n";
+        assert!(check_face_indices(ok).is_ok());
+        // Relative indices count only what came before; positive ones the whole file.
+        let err = check_face_indices("v 0 0 0\nf -2 1 1\nv 1 0 0\n").unwrap_err();
+        assert!(
+            err.starts_with("line 2:") && err.contains("1 vertices before it"),
+            "{err}"
+        );
+        let err = check_face_indices("v 0 0 0\nvt 0 0\nf 1/2 1/1 1/1\n").unwrap_err();
+        assert!(err.contains("1 texture coordinates in the file"), "{err}");
+        // Malformed numbers are left to tobj, which reports them.
+        assert!(check_face_indices("v 0 0 0\nf a b c\n").is_ok());
+    }
+
+    #[test]
+    fn grey_colours_are_expanded_and_short_ones_refused() {
+        let text = "newmtl a\nKd 0.5\nKs 1 2 3\n";
+        assert_eq!(
+            normalize_mtl_colours(text).unwrap(),
+            "newmtl a\nKd 0.5 0.5 0.5\nKs 1 2 3\n"
+        );
+        assert!(matches!(
+            normalize_mtl_colours("Kd 1 2 3\n").unwrap(),
+            std::borrow::Cow::Borrowed(_)
+        ));
+        let err = normalize_mtl_colours("newmtl a\nKe 1 2\n").unwrap_err();
+        assert_eq!(
+            err,
+            "line 2: Ke needs three numbers (or one for grey), got 2"
+        );
+    }
 }

@@ -1,0 +1,82 @@
+//! How much memory the machine can give ember, so that work which cannot fit is refused
+//! up front with a message naming the sizes, instead of dying half-way in the allocator.
+
+/// Environment variable that overrides the available memory, in bytes. For tests (and
+/// for users who want ember to stay under a budget smaller than the machine's).
+pub const MEMORY_LIMIT_ENV: &str = "EMBER_MEMORY_LIMIT";
+
+/// Bytes of memory available to ember: `EMBER_MEMORY_LIMIT` if set, otherwise
+/// `MemAvailable` from `/proc/meminfo`. `None` where neither is known (non-Linux),
+/// in which case no up-front check is made.
+pub fn available_memory() -> Option<u64> {
+    if let Some(limit) = std::env::var(MEMORY_LIMIT_ENV)
+        .ok()
+        .and_then(|v| v.trim().parse::<u64>().ok())
+    {
+        return Some(limit);
+    }
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
+    parse_meminfo_available(&meminfo)
+}
+
+/// The `MemAvailable:` line of `/proc/meminfo` text, in bytes.
+pub fn parse_meminfo_available(meminfo: &str) -> Option<u64> {
+    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let mut words = line.split_whitespace().skip(1);
+    let value: u64 = words.next()?.parse().ok()?;
+    let unit = match words.next() {
+        Some("kB") => 1024,
+        None => 1,
+        Some(_) => return None,
+    };
+    value.checked_mul(unit)
+}
+
+/// `bytes` for people: "512 B", "3.2 MiB", "17.0 GiB".
+pub fn human_bytes(bytes: u64) -> String {
+    const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
+    let mut value = bytes as f64;
+    let mut unit = 0;
+    while value >= 1024.0 && unit + 1 < UNITS.len() {
+        value /= 1024.0;
+        unit += 1;
+    }
+    if unit == 0 {
+        format!("{bytes} B")
+    } else {
+        format!("{value:.1} {}", UNITS[unit])
+    }
+}
+
+/// Refuses `what` needing `needed` bytes when the machine has less available.
+pub fn check_fits(what: &str, needed: u64) -> Result<(), String> {
+    match available_memory() {
+        Some(available) if needed > available => Err(format!(
+            "{what} needs {} of memory, but only {} is available",
+            human_bytes(needed),
+            human_bytes(available)
+        )),
+        _ => Ok(()),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn meminfo_available_is_read_in_bytes() {
+        let text = "MemTotal:       24684084 kB\nMemFree:  100 kB\nMemAvailable:   23843344 kB\n";
+        assert_eq!(parse_meminfo_available(text), Some(23_843_344 * 1024));
+        assert_eq!(parse_meminfo_available("MemTotal: 5 kB\n"), None);
+        assert_eq!(parse_meminfo_available("MemAvailable: x kB\n"), None);
+    }
+
+    #[test]
+    fn sizes_are_printed_in_binary_units() {
+        assert_eq!(human_bytes(512), "512 B");
+        assert_eq!(human_bytes(1536), "1.5 KiB");
+        assert_eq!(human_bytes(3 << 30), "3.0 GiB");
+        assert_eq!(human_bytes(u64::MAX), "16384.0 PiB");
+    }
+}

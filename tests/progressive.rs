@@ -1,0 +1,217 @@
+//! Progressive rendering: stopping a render anywhere (between passes, inside a tile,
+//! mid-pixel) and resuming it, through a checkpoint file or not, gives the image of an
+//! uninterrupted render bit for bit.
+
+use std::path::Path;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::time::Duration;
+
+use ember::accel::EmbreeAccel;
+use ember::checkpoint;
+use ember::embree::{BuildQuality, Device};
+use ember::integrator::IntegratorKind;
+use ember::render::{
+    render, render_progressive, Checkpointing, Progress, RenderControl, RenderSettings,
+};
+use ember::scene::{load_obj, Camera, CameraSettings, Scene};
+
+struct Fixture {
+    scene: Scene,
+    accel: EmbreeAccel,
+    camera_settings: CameraSettings,
+    camera: Camera,
+    settings: RenderSettings,
+}
+
+fn fixture() -> Fixture {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/CornellBox-Original.obj");
+    let (scene, _) = load_obj(&path).unwrap();
+    let device = Device::new("threads=2").unwrap();
+    let accel = EmbreeAccel::build(
+        &device,
+        &scene.mesh.positions,
+        &scene.mesh.triangles,
+        BuildQuality::Medium,
+    )
+    .unwrap();
+    let (lo, hi) = scene.bounds();
+    let camera_settings = CameraSettings::framing(lo, hi, 40.0);
+    // Not a multiple of the tile size, so edge tiles are partial.
+    let settings = RenderSettings {
+        width: 37,
+        height: 21,
+        spp: 6,
+        max_depth: 5,
+        seed: 11,
+        integrator: IntegratorKind::Bsdf,
+    };
+    Fixture {
+        camera: camera_settings.camera(settings.width, settings.height),
+        scene,
+        accel,
+        camera_settings,
+        settings,
+    }
+}
+
+/// Renders from `progress`, stopping once `stop_after` more samples were taken (the
+/// stop flag is checked before each sample, so this lands inside tiles and pixels).
+fn run(f: &Fixture, progress: Progress, first_pass_spp: u32, stop_after: Option<u64>) -> Progress {
+    let stop = AtomicUsize::new(0);
+    let taken = AtomicU64::new(0);
+    let on_samples = |n: u64| {
+        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
+        if stop_after.is_some_and(|limit| total >= limit) {
+            stop.store(2, Ordering::Relaxed);
+        }
+    };
+    let control = RenderControl {
+        stop: &stop,
+        on_samples: &on_samples,
+        first_pass_spp,
+        checkpoint: None,
+    };
+    let (progress, stats) = render_progressive(
+        &f.scene,
+        &f.accel,
+        &f.camera,
+        &f.settings,
+        progress,
+        &control,
+    );
+    assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
+    progress
+}
+
+fn bits(p: &Progress) -> Vec<u64> {
+    p.sums
+        .iter()
+        .flat_map(|s| s.to_array().map(f64::to_bits))
+        .collect()
+}
+
+#[test]
+fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
+    let f = fixture();
+    let pixels = u64::from(f.settings.width * f.settings.height);
+    let fresh = || Progress::new(f.settings.width, f.settings.height);
+    let whole = run(&f, fresh(), u32::MAX, None);
+    assert!(whole.done.iter().all(|&d| d == f.settings.spp));
+    assert!(whole.kept.iter().all(|&k| k <= f.settings.spp));
+
+    // The one-pass render of `render()` is the same image.
+    let (film, _) = render(&f.scene, &f.accel, &f.camera, &f.settings, &|_| {});
+    assert_eq!(film, whole.film());
+
+    // Any pass schedule, and stops at many points (a stop lands on a tile boundary
+    // after the stop flag is seen, so the exact sample count varies; any is valid).
+    for (first_pass, stops) in [
+        (1, vec![1, 500, 3 * pixels + 17]),
+        (4, vec![pixels / 2, pixels]),
+    ] {
+        let mut progress = fresh();
+        for (i, stop_after) in stops.into_iter().enumerate() {
+            progress = run(&f, progress, first_pass, Some(stop_after));
+            if i == 0 {
+                // At most a tile per worker overshoots: far from all 4662 samples.
+                assert!(progress.min_done() < f.settings.spp, "stopped early");
+            }
+        }
+        let resumed = run(&f, progress, 2, None);
+        assert_eq!(resumed.done, whole.done);
+        assert_eq!(resumed.kept, whole.kept);
+        assert_eq!(bits(&resumed), bits(&whole));
+        assert_eq!(resumed.film(), whole.film());
+    }
+}
+
+#[test]
+fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
+    let f = fixture();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("c.checkpoint");
+    let identity = checkpoint::identity(&f.scene, &f.camera_settings, &f.settings);
+    let partial = run(
+        &f,
+        Progress::new(f.settings.width, f.settings.height),
+        1,
+        Some(1234),
+    );
+    checkpoint::save(&path, &identity, &partial).unwrap();
+    let loaded = checkpoint::load(&path, &identity, f.settings.spp).unwrap();
+    assert_eq!(loaded, partial);
+    let resumed = run(&f, loaded, 1, None);
+    let whole = run(
+        &f,
+        Progress::new(f.settings.width, f.settings.height),
+        u32::MAX,
+        None,
+    );
+    assert_eq!(bits(&resumed), bits(&whole));
+
+    // Settings that would continue a different image are refused, naming the setting.
+    let mut other = f.settings;
+    other.seed += 1;
+    let err = checkpoint::load(
+        &path,
+        &checkpoint::identity(&f.scene, &f.camera_settings, &other),
+        other.spp,
+    )
+    .unwrap_err();
+    assert!(
+        err.to_string().contains("seed 11") && err.to_string().contains("seed 12"),
+        "{err}"
+    );
+    // So is a different scene.
+    let mut scene = f.scene.clone();
+    scene.mesh.positions[0].x += 1e-3;
+    let err = checkpoint::load(
+        &path,
+        &checkpoint::identity(&scene, &f.camera_settings, &f.settings),
+        6,
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("scene"), "{err}");
+    // Any flipped byte is caught by the checksum.
+    let bytes = std::fs::read(&path).unwrap();
+    for at in [0, 9, 20, bytes.len() / 2, bytes.len() - 1] {
+        let mut damaged = bytes.clone();
+        damaged[at] ^= 0x10;
+        std::fs::write(&path, &damaged).unwrap();
+        assert!(checkpoint::load(&path, &identity, 6).is_err(), "byte {at}");
+    }
+}
+
+#[test]
+fn periodic_checkpoints_are_whole_files() {
+    let f = fixture();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("p.checkpoint");
+    let identity = checkpoint::identity(&f.scene, &f.camera_settings, &f.settings);
+    let write = |p: &Progress| checkpoint::save(&path, &identity, p).unwrap();
+    let stop = AtomicUsize::new(0);
+    let control = RenderControl {
+        stop: &stop,
+        on_samples: &|_| {},
+        first_pass_spp: 1,
+        checkpoint: Some(Checkpointing {
+            every: Duration::from_millis(1),
+            write: &write,
+        }),
+    };
+    let mut settings = f.settings;
+    settings.spp = 40;
+    let progress = Progress::new(settings.width, settings.height);
+    let (progress, _) =
+        render_progressive(&f.scene, &f.accel, &f.camera, &settings, progress, &control);
+    // However many were written meanwhile, the file on disk is a complete checkpoint.
+    if path.exists() {
+        let loaded = checkpoint::load(&path, &identity, settings.spp).unwrap();
+        assert!(loaded.done.iter().zip(&progress.done).all(|(a, b)| a <= b));
+    }
+    let names: Vec<_> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().file_name())
+        .collect();
+    assert!(names.len() <= 1, "no temporary files left: {names:?}");
+}
