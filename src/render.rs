@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::film::Film;
-use crate::integrator::{IntegratorKind, PathTracer, RayCount};
+use crate::integrator::{IntegratorKind, PairedCoins, PathTracer, RayCount};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 
@@ -66,6 +66,10 @@ pub fn tiles(width: u32, height: u32) -> Vec<(u32, u32, u32, u32)> {
     }
     tiles
 }
+
+/// Salt of the random stream that pairs samples for the mixture estimator, so that it
+/// is independent of the samples' own streams.
+const PAIR_STREAM: u64 = 0x05ca_1ab1_e0dd_ba11;
 
 /// The running state of a progressive render, per pixel: the sum of the finite sample
 /// estimates (in `f64`, added in sample order), how many of them were finite, and how
@@ -319,7 +323,10 @@ fn render_tile<A: Accel>(
             let mut rng = Rng::for_sample(settings.seed, pixel, u64::from(sample));
             // Box filter: a uniform position inside the pixel.
             let ray = camera.ray(x as f32 + rng.f32(), y as f32 + rng.f32());
-            let l = tracer.radiance(ray, &mut rng, &mut count);
+            // Samples 2k and 2k+1 make opposite mixture choices (see PairedCoins).
+            let pair = Rng::for_sample(settings.seed ^ PAIR_STREAM, pixel, u64::from(sample / 2));
+            let coins = PairedCoins::new(pair, sample % 2 == 1);
+            let l = tracer.radiance(ray, Some(coins), &mut rng, &mut count);
             if l.is_finite() {
                 sum += l.as_dvec3();
                 kept += 1;

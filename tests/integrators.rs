@@ -32,7 +32,7 @@ fn mean_radiance<A: Accel>(tracer: &PathTracer<'_, A>, origin: Vec3, n: u64) -> 
         let mut rng = Rng::for_sample(99, 0, i);
         let dir = uniform_sphere(rng.f32(), rng.f32());
         let l = tracer
-            .radiance(Ray::new(origin, dir), &mut rng, &mut count)
+            .radiance(Ray::new(origin, dir), None, &mut rng, &mut count)
             .as_dvec3();
         sum += l;
         sum2 += l * l;
@@ -197,7 +197,7 @@ fn render_pixels(
                 for s in 0..spp {
                     let mut rng = Rng::for_sample(seed, pixel, u64::from(s));
                     let ray = camera.ray(x as f32 + rng.f32(), y as f32 + rng.f32());
-                    let l = tracer.radiance(ray, &mut rng, &mut count);
+                    let l = tracer.radiance(ray, None, &mut rng, &mut count);
                     if l.is_finite() {
                         sum += l;
                     }

@@ -346,3 +346,58 @@ fn light_value_equals_the_density_of_the_draw() {
         assert!(produced > 10_000);
     }
 }
+
+/// `may_light` may only say "no" for points behind every emitter: for random emitters
+/// whose normals lie in a cone, and random points, a point it culls has
+/// `(p − q) · n ≤ 0` for every vertex `q` of every emitter (and so, by linearity, for
+/// every point of every emitter).
+#[test]
+fn light_culling_never_skips_a_lit_point() {
+    let mut rng = Rng::seeded(77);
+    for spread in [0.0f32, 0.3, 0.9] {
+        let mut triangles = Vec::new();
+        for _ in 0..6 {
+            let center = Vec3::new(rng.f32(), 2.0 + rng.f32(), rng.f32());
+            // A normal near -y, tilted by up to `spread` radians.
+            let tilt = Vec3::new(rng.f32() - 0.5, 0.0, rng.f32() - 0.5) * 2.0 * spread.tan();
+            let n = (-Vec3::Y + tilt).normalize();
+            let onb = ember::sampling::Onb::from_w(n);
+            // Counter-clockwise around n.
+            let verts =
+                [0.0f32, 2.1, 4.2].map(|a| center + 0.2 * (a.cos() * onb.u + a.sin() * onb.v));
+            triangles.push((verts, 0));
+        }
+        let built = build(&triangles, vec![diffuse(Vec3::splat(0.5), Vec3::ONE)]);
+        let lights = LightSampler::new(&built.scene);
+        let mut culled = 0;
+        for _ in 0..20_000 {
+            let p = Vec3::new(
+                rng.f32() * 6.0 - 3.0,
+                rng.f32() * 6.0 - 1.0,
+                rng.f32() * 6.0 - 3.0,
+            );
+            if lights.may_light(p) {
+                continue;
+            }
+            culled += 1;
+            for (verts, _) in &triangles {
+                let n = (verts[1] - verts[0]).cross(verts[2] - verts[0]).normalize();
+                for q in verts {
+                    assert!(
+                        (p - *q).dot(n) <= 1e-5,
+                        "culled {p} is in front of an emitter"
+                    );
+                }
+            }
+        }
+        // The test is not vacuous: points above the lights are culled (fewer as the
+        // normals spread and the cone widens).
+        let expected = if spread < 0.5 { 1000 } else { 1 };
+        assert!(
+            culled >= expected,
+            "only {culled} points culled with spread {spread}"
+        );
+        assert!(!lights.may_light(Vec3::new(0.5, 10.0, 0.5)));
+        assert!(lights.may_light(Vec3::new(0.5, -1.0, 0.5)));
+    }
+}

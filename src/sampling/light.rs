@@ -31,6 +31,64 @@ pub struct LightSampler {
     /// touches one 64-byte record instead of indices, vertices and materials.
     emitters: Vec<Emitter>,
     table: Option<AliasTable>,
+    /// Where the emitters are and which way they face, to tell cheaply which points
+    /// no emitter can light (see [`may_light`](Self::may_light)).
+    bounds: EmitterBounds,
+}
+
+/// A box around every emitter and a cone around every emitter's normal.
+#[derive(Clone, Copy, Debug)]
+struct EmitterBounds {
+    lo: Vec3,
+    hi: Vec3,
+    axis: Vec3,
+    /// `-sin θ` for the cone's half-angle θ; `-1` (or less) when θ ≥ 90°, where
+    /// every point may be lit.
+    threshold: f32,
+}
+
+impl Default for EmitterBounds {
+    fn default() -> Self {
+        EmitterBounds {
+            lo: Vec3::ZERO,
+            hi: Vec3::ZERO,
+            axis: Vec3::Z,
+            threshold: -1.0,
+        }
+    }
+}
+
+impl EmitterBounds {
+    fn new(emitters: &[Emitter]) -> Self {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for e in emitters {
+            for v in [e.v0, e.v0 + e.e1, e.v0 + e.e2] {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        }
+        let axis = emitters
+            .iter()
+            .map(|e| e.normal)
+            .sum::<Vec3>()
+            .normalize_or_zero();
+        let cos_theta = emitters
+            .iter()
+            .map(|e| e.normal.dot(axis))
+            .fold(1.0f32, f32::min);
+        if axis == Vec3::ZERO || emitters.is_empty() || cos_theta <= 0.0 {
+            return EmitterBounds::default();
+        }
+        // A little slack so that rounding never culls a point that is lit.
+        let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+        EmitterBounds {
+            lo,
+            hi,
+            axis,
+            threshold: -sin_theta - 1e-4,
+        }
+    }
 }
 
 /// One emissive triangle: `v0 + b1 e1 + b2 e2`.
@@ -75,7 +133,7 @@ impl LightSampler {
             .map(|&t| scene.mesh.area(t) * luminance(emission(t)).max(0.0))
             .collect();
         let table = AliasTable::new(&weights);
-        let emitters = prims
+        let emitters: Vec<Emitter> = prims
             .iter()
             .enumerate()
             .map(|(i, &t)| {
@@ -94,9 +152,41 @@ impl LightSampler {
             .collect();
         LightSampler {
             prims,
+            bounds: EmitterBounds::new(&emitters),
             emitters,
             table,
         }
+    }
+
+    /// Whether some emitter might light point `p`, that is have `p` on its emitting
+    /// side. `false` is certain: every emitter faces away from `p`, so light samples
+    /// from there are worthless and the integrators skip them. (Exact for the
+    /// Cornell box, whose ceiling lies behind its light.)
+    ///
+    /// Conservative test in O(1): `p` may be lit by an emitter point `q` with normal
+    /// `n` when `(p − q) · n > 0`. Over `q` in the emitters' box and `n` in their
+    /// normal cone (axis `a`, half-angle θ), the largest `(p − q) · n` is reached at
+    /// a corner `q` of the box, where it is positive iff the angle between `p − q`
+    /// and `a` is below 90° + θ, i.e. `(p − q)/|p − q| · a > −sin θ`.
+    #[inline]
+    pub fn may_light(&self, p: Vec3) -> bool {
+        let b = &self.bounds;
+        if self.table.is_none() {
+            return false;
+        }
+        if b.threshold <= -1.0 {
+            return true;
+        }
+        (0..8).any(|corner| {
+            let q = Vec3::new(
+                if corner & 1 == 0 { b.lo.x } else { b.hi.x },
+                if corner & 2 == 0 { b.lo.y } else { b.hi.y },
+                if corner & 4 == 0 { b.lo.z } else { b.hi.z },
+            );
+            let v = p - q;
+            let length = v.length();
+            length == 0.0 || v.dot(b.axis) > b.threshold * length
+        })
     }
 
     /// Whether there is anything to sample.
