@@ -58,6 +58,7 @@ pub fn identity(
         ("eye", v(camera.eye)),
         ("look-at", v(camera.look_at)),
         ("up", v(camera.up)),
+        ("background", v(scene.background)),
         ("scene", format!("{:016x}", scene_hash(scene))),
     ]
     .into_iter()

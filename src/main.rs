@@ -87,6 +87,10 @@ struct RenderArgs {
     /// Vertical field of view in degrees, strictly between 0 and 180.
     #[arg(long, default_value_t = 40.0, value_parser = parse_fov)]
     fov: f32,
+    /// Radiance of a uniform sky behind the scene, R,G,B [default: 0,0,0, or 1,1,1
+    /// when the scene has no emissive material, so that it is not rendered black].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    background: Option<Vec3>,
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorKind::default())]
     integrator: IntegratorKind,
@@ -255,7 +259,14 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
     )
     .map_err(anyhow::Error::msg)?;
 
-    let (scene, report) = load_obj(&args.scene)?;
+    let (mut scene, report) = load_obj(&args.scene)?;
+    let unlit = scene.emitters.is_empty() && args.background.is_none();
+    scene.background = match args.background {
+        Some(b) if b.min_element() < 0.0 => bail!("--background must not be negative"),
+        Some(b) => b,
+        None if unlit => Vec3::ONE,
+        None => Vec3::ZERO,
+    };
     let (lo, hi) = scene.bounds();
     let framing = CameraSettings::framing(lo, hi, args.fov);
     let camera_settings = CameraSettings {
@@ -328,6 +339,11 @@ fn render_command(args: RenderArgs) -> Result<ExitCode> {
     // Only now that every input has been checked: a failing run prints one line.
     for warning in &report.warnings {
         eprintln!("warning: {}: {warning}", args.scene.display());
+    }
+    if unlit {
+        eprintln!(
+            "note: the scene has no emissive material: it is lit by a white sky (see --background)"
+        );
     }
     eprintln!(
         "loaded {}: {} triangles, {} materials, {} emissive triangles{}",

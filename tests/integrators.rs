@@ -284,3 +284,53 @@ fn light_sampling_wins_on_a_small_light() {
     assert!(bsdf > 5.0 * mis, "mis {mis} vs bsdf {bsdf}");
     assert!(mixture > mis, "MIS should beat the one-sample mixture here");
 }
+
+/// A diffuse triangle under a uniform sky of radiance `S` (nothing else in the scene):
+/// every point of it sees the sky over its whole hemisphere, so it reflects exactly
+/// `albedo · S` towards any viewer, and rays that miss it see `S`.
+#[test]
+fn uniform_sky_over_a_diffuse_triangle() {
+    let albedo = Vec3::new(0.8, 0.5, 0.2);
+    let sky = Vec3::new(1.0, 2.0, 0.5);
+    let mut built = build(
+        &[(
+            [
+                Vec3::new(-1.0, 0.0, -1.0),
+                Vec3::new(1.0, 0.0, -1.0),
+                Vec3::new(0.0, 0.0, 1.0),
+            ],
+            0,
+        )],
+        vec![diffuse(albedo, Vec3::ZERO)],
+    );
+    built.scene.background = sky;
+    for kind in ALL {
+        let tracer = PathTracer::new(&built.scene, &built.accel, 8, kind);
+        let mut count = RayCount::default();
+        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+        let n = 20_000;
+        for i in 0..n {
+            let mut rng = Rng::for_sample(5, 1, i);
+            // Looking down at the triangle's centre region, from above and below
+            // (diffuse surfaces are two-sided).
+            let from = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let origin = Vec3::new(0.0, from, 0.0);
+            let target = Vec3::new(0.2 * rng.f32() - 0.1, 0.0, 0.2 * rng.f32() - 0.1);
+            let ray = Ray::new(origin, (target - origin).normalize());
+            let l = tracer.radiance(ray, None, &mut rng, &mut count).as_dvec3();
+            sum += l;
+            sum2 += l * l;
+        }
+        let mean = sum / n as f64;
+        let err = ((sum2 / n as f64 - mean * mean).max(DVec3::ZERO) / n as f64).powf(0.5);
+        let want = (albedo * sky).as_dvec3();
+        assert!(
+            ((mean - want).abs() - 4.0 * err - DVec3::splat(1e-6)).max_element() <= 0.0,
+            "{kind:?}: {mean} vs {want} ± {err}"
+        );
+        // A ray that misses everything sees the sky itself.
+        let up = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::Y);
+        let l = tracer.radiance(up, None, &mut Rng::seeded(1), &mut count);
+        assert_eq!(l, sky);
+    }
+}

@@ -141,6 +141,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut hit = self.trace(&ray, count);
         for segment in 1..=self.max_depth {
             let Some(current) = hit else {
+                // The sky: never sampled by the light strategies, so it counts in full.
+                radiance += throughput * self.scene.background;
                 break;
             };
             let surface = self.scene.mesh.surface(&current);

@@ -61,6 +61,9 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Indices of the triangles whose material emits.
     pub emitters: Vec<u32>,
+    /// Radiance arriving from every direction where rays leave the scene (a uniform
+    /// sky); black by default.
+    pub background: Vec3,
 }
 
 impl Scene {
@@ -74,6 +77,7 @@ impl Scene {
             materials,
             textures,
             emitters,
+            background: Vec3::ZERO,
         }
     }
 
