@@ -349,6 +349,6 @@ fn a_good_scene_renders_and_leaves_only_its_image() {
     let image = ember::film::Film::load(&dir.path().join("out.exr")).unwrap();
     assert_eq!((image.width, image.height), (16, 8));
     // The scene has no emitter, so a white sky lights it: rays that miss read 1.
-    assert!(image.pixels.iter().any(|p| *p == glam::Vec3::ONE));
+    assert!(image.pixels.contains(&glam::Vec3::ONE));
     assert!(String::from_utf8_lossy(&out.stderr).contains("white sky"));
 }
