@@ -1,0 +1,321 @@
+//! ember's native BVH: a 4-wide tree built with the binned SAH ([`build`]), traversed
+//! front to back with four slab tests per node in one auto-vectorised loop, and
+//! watertight ray/triangle tests ([`triangle`]) in the leaves.
+
+mod build;
+mod node;
+mod triangle;
+
+use glam::Vec3;
+use rayon::prelude::*;
+use thiserror::Error;
+
+use self::build::PrimRef;
+use self::node::{Child, Node4, MAX_TRIANGLES, WIDTH};
+use self::triangle::RayShear;
+use super::{Accel, Hit, Ray};
+
+/// Why a BVH could not be built.
+#[derive(Debug, Error, PartialEq, Eq)]
+pub enum BvhError {
+    #[error("vertex index {index} out of range for {vertices} vertices")]
+    IndexOutOfRange { index: u32, vertices: usize },
+    #[error("{0} triangles is more than the native BVH can index ({MAX_TRIANGLES})")]
+    TooManyTriangles(usize),
+}
+
+/// Traversal stack depth: the builder keeps the binary depth under 48 + 27 levels and
+/// every 4-wide node pushes at most three children.
+const STACK: usize = 256;
+
+/// Slab-test slack: scaling the far distance by `1 + 2γ₃` keeps the box test
+/// conservative under rounding (Ize 2013, pbrt-v4), so watertight triangles are not
+/// culled at their boxes' edges.
+const FAR_SLACK: f32 = 1.0 + 2.0 * 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
+
+/// A 4-wide bounding volume hierarchy over a triangle mesh.
+pub struct Bvh {
+    nodes: Vec<Node4>,
+    /// Triangle vertices in leaf order.
+    tris: Vec<[[f32; 3]; 3]>,
+    /// The mesh's index of each triangle in `tris`.
+    prims: Vec<u32>,
+}
+
+/// The per-ray constants of the slab test.
+struct RayBoxes {
+    org: [f32; 3],
+    inv: [f32; 3],
+    neg: [bool; 3],
+}
+
+impl RayBoxes {
+    fn new(ray: &Ray) -> Self {
+        let inv = ray.dir.recip().to_array();
+        RayBoxes {
+            org: ray.origin.to_array(),
+            inv,
+            neg: [
+                inv[0].is_sign_negative(),
+                inv[1].is_sign_negative(),
+                inv[2].is_sign_negative(),
+            ],
+        }
+    }
+
+    /// Entry distance of each lane, and whether the ray meets that lane's box in
+    /// `[tmin, tmax]`.
+    #[inline(always)]
+    fn test(&self, node: &Node4, tmin: f32, tmax: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+        let mut near = [tmin; WIDTH];
+        let mut far = [tmax; WIDTH];
+        for axis in 0..3 {
+            let (n, f) = if self.neg[axis] {
+                (&node.hi[axis], &node.lo[axis])
+            } else {
+                (&node.lo[axis], &node.hi[axis])
+            };
+            let (o, inv) = (self.org[axis], self.inv[axis]);
+            for lane in 0..WIDTH {
+                let t0 = (n[lane] - o) * inv;
+                let t1 = (f[lane] - o) * inv;
+                // Written as comparisons so NaN (0 × ∞ on a box face) leaves the
+                // interval as it was, and so the loop becomes packed max/min.
+                near[lane] = if t0 > near[lane] { t0 } else { near[lane] };
+                far[lane] = if t1 < far[lane] { t1 } else { far[lane] };
+            }
+        }
+        let mut hit = [false; WIDTH];
+        for lane in 0..WIDTH {
+            hit[lane] = near[lane] <= far[lane] * FAR_SLACK;
+        }
+        (near, hit)
+    }
+}
+
+impl Bvh {
+    /// Builds the tree on the current rayon pool. Triangles with a non-finite vertex can
+    /// never be hit and are left out.
+    pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
+        if triangles.len() > MAX_TRIANGLES {
+            return Err(BvhError::TooManyTriangles(triangles.len()));
+        }
+        if let Some(&index) = triangles
+            .iter()
+            .flatten()
+            .find(|&&i| i as usize >= vertices.len())
+        {
+            return Err(BvhError::IndexOutOfRange {
+                index,
+                vertices: vertices.len(),
+            });
+        }
+        let corners = |t: &[u32; 3]| t.map(|i| vertices[i as usize]);
+        let mut refs: Vec<PrimRef> = triangles
+            .par_iter()
+            .enumerate()
+            .filter_map(|(id, t)| {
+                let [a, b, c] = corners(t);
+                let finite = a.is_finite() && b.is_finite() && c.is_finite();
+                finite.then(|| PrimRef {
+                    lo: a.min(b).min(c),
+                    hi: a.max(b).max(c),
+                    id: id as u32,
+                })
+            })
+            .collect();
+        if refs.is_empty() {
+            return Ok(Bvh {
+                nodes: vec![Node4::EMPTY],
+                tris: Vec::new(),
+                prims: Vec::new(),
+            });
+        }
+        let nodes = build::build(&mut refs);
+        let prims: Vec<u32> = refs.par_iter().map(|r| r.id).collect();
+        let tris = prims
+            .par_iter()
+            .map(|&p| corners(&triangles[p as usize]).map(|v| v.to_array()))
+            .collect();
+        Ok(Bvh { nodes, tris, prims })
+    }
+
+    /// Number of 4-wide nodes.
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+}
+
+impl Accel for Bvh {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        let boxes = RayBoxes::new(ray);
+        let shear = RayShear::new(ray.origin, ray.dir);
+        let (tmin, mut tmax) = (ray.tmin, ray.tmax);
+        let mut best: Option<(usize, f32, f32)> = None;
+        let mut stack = [(Child(0), 0.0f32); STACK];
+        let mut sp = 0;
+        let mut cur = Child::inner(0);
+        loop {
+            if cur.is_leaf() {
+                for i in cur.triangles() {
+                    if let Some((t, u, v)) = shear.intersect(&self.tris[i], tmin, tmax) {
+                        tmax = t;
+                        best = Some((i, u, v));
+                    }
+                }
+            } else {
+                let node = &self.nodes[cur.index()];
+                let (near, hit) = boxes.test(node, tmin, tmax);
+                let mut kids = [(Child(0), 0.0f32); WIDTH];
+                let mut n = 0;
+                for lane in 0..WIDTH {
+                    if hit[lane] {
+                        kids[n] = (node.child[lane], near[lane]);
+                        n += 1;
+                    }
+                }
+                if n > 0 {
+                    // Farthest first onto the stack, nearest visited next.
+                    let kids = &mut kids[..n];
+                    for i in 1..n {
+                        let mut j = i;
+                        while j > 0 && kids[j - 1].1 < kids[j].1 {
+                            kids.swap(j - 1, j);
+                            j -= 1;
+                        }
+                    }
+                    stack[sp..sp + n - 1].copy_from_slice(&kids[..n - 1]);
+                    sp += n - 1;
+                    cur = kids[n - 1].0;
+                    continue;
+                }
+            }
+            // Pop the nearest pending child that could still be closer than the hit.
+            loop {
+                if sp == 0 {
+                    return best.map(|(i, u, v)| Hit {
+                        t: tmax,
+                        prim: self.prims[i],
+                        u,
+                        v,
+                    });
+                }
+                sp -= 1;
+                let (child, near) = stack[sp];
+                if near <= tmax {
+                    cur = child;
+                    break;
+                }
+            }
+        }
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        let boxes = RayBoxes::new(ray);
+        let shear = RayShear::new(ray.origin, ray.dir);
+        let (tmin, tmax) = (ray.tmin, ray.tmax);
+        let mut stack = [Child(0); STACK];
+        let mut sp = 0;
+        let mut cur = Child::inner(0);
+        loop {
+            if cur.is_leaf() {
+                for i in cur.triangles() {
+                    if shear.intersect(&self.tris[i], tmin, tmax).is_some() {
+                        return true;
+                    }
+                }
+            } else {
+                let node = &self.nodes[cur.index()];
+                let (_, hit) = boxes.test(node, tmin, tmax);
+                for lane in 0..WIDTH {
+                    if hit[lane] {
+                        stack[sp] = node.child[lane];
+                        sp += 1;
+                    }
+                }
+            }
+            if sp == 0 {
+                return false;
+            }
+            sp -= 1;
+            cur = stack[sp];
+        }
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.nodes.len() * std::mem::size_of::<Node4>()
+            + self.tris.len() * std::mem::size_of::<[[f32; 3]; 3]>()
+            + self.prims.len() * std::mem::size_of::<u32>()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A unit cube of 12 triangles.
+    fn cube() -> (Vec<Vec3>, Vec<[u32; 3]>) {
+        let v = (0..8)
+            .map(|i| Vec3::new((i & 1) as f32, ((i >> 1) & 1) as f32, ((i >> 2) & 1) as f32))
+            .collect();
+        let quads = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ];
+        let t = quads
+            .iter()
+            .flat_map(|q| [[q[0], q[1], q[2]], [q[0], q[2], q[3]]])
+            .collect();
+        (v, t)
+    }
+
+    #[test]
+    fn ray_through_cube_hits_the_near_face() {
+        let (v, t) = cube();
+        let bvh = Bvh::build(&v, &t).unwrap();
+        let ray = Ray::new(Vec3::new(0.3, 0.4, -2.0), Vec3::Z);
+        let hit = bvh.intersect(&ray).unwrap();
+        assert!((hit.t - 2.0).abs() < 1e-6);
+        // The face z = 0 is made of triangles 0 and 1.
+        assert!(hit.prim < 2, "prim {}", hit.prim);
+        let [a, b, c] = t[hit.prim as usize].map(|i| v[i as usize]);
+        let p = (1.0 - hit.u - hit.v) * a + hit.u * b + hit.v * c;
+        assert!((p - ray.at(hit.t)).length() < 1e-5);
+        // From inside, the far face at z = 1.
+        let inside = Ray::new(Vec3::splat(0.5), Vec3::Z);
+        assert!((bvh.intersect(&inside).unwrap().t - 0.5).abs() < 1e-6);
+        assert!(bvh.occluded(&inside));
+        assert!(!bvh.occluded(&Ray::segment(Vec3::splat(0.5), Vec3::Z, 0.4)));
+        assert!(bvh
+            .intersect(&Ray::new(Vec3::new(2.0, 0.5, 0.5), Vec3::Y))
+            .is_none());
+    }
+
+    #[test]
+    fn bad_indices_and_empty_meshes() {
+        let (v, _) = cube();
+        assert_eq!(
+            Bvh::build(&v, &[[0, 1, 8]]).err(),
+            Some(BvhError::IndexOutOfRange {
+                index: 8,
+                vertices: 8
+            })
+        );
+        let empty = Bvh::build(&v, &[]).unwrap();
+        assert!(empty.intersect(&Ray::new(Vec3::ZERO, Vec3::X)).is_none());
+        assert!(!empty.occluded(&Ray::new(Vec3::ZERO, Vec3::X)));
+    }
+
+    #[test]
+    fn far_slack_is_a_tiny_enlargement() {
+        assert!(FAR_SLACK > 1.0 && FAR_SLACK < 1.0 + 1e-6);
+    }
+}
