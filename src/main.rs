@@ -1,4 +1,4 @@
-//! The `ember` command line: `ember render`, `ember info`.
+//! The `ember` command line: `ember render`, `ember bench`, `ember info`.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -8,12 +8,13 @@ use clap::{Args, Parser, Subcommand};
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use ember::accel::{Accel, EmbreeAccel};
+use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
+use ember::bench::{self, BenchMesh, BenchOptions};
 use ember::embree::{BuildQuality, Device};
 use ember::film::{self, Film};
 use ember::integrator::IntegratorKind;
 use ember::render::{self, RenderSettings, RenderStats};
-use ember::scene::{load_obj, CameraSettings, Scene};
+use ember::scene::{load_obj, CameraSettings, Procedural, Scene};
 
 #[derive(Parser)]
 #[command(
@@ -30,6 +31,9 @@ struct Cli {
 enum Command {
     /// Render an OBJ scene to PNG (sRGB), EXR or HDR (linear).
     Render(RenderArgs),
+    /// Time Embree against the native BVH: build time, memory, and rays per second for
+    /// primary, diffuse and shadow rays, single-threaded and on several threads.
+    Bench(BenchArgs),
     /// Show the Embree library in use, its ISA and threads, and how ember was built.
     Info,
 }
@@ -76,6 +80,55 @@ struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorKind::Bsdf)]
     integrator: IntegratorKind,
+    /// Which structure answers the ray queries; the same seed gives the same image with
+    /// either (up to floating-point ties).
+    #[arg(long, value_enum, default_value_t = AccelKind::Embree)]
+    accel: AccelKind,
+}
+
+#[derive(Args)]
+struct BenchArgs {
+    /// OBJ meshes to benchmark on (materials with Ke > 0 become the shadow rays' targets).
+    meshes: Vec<PathBuf>,
+    /// Procedural meshes, KIND:COUNT with KIND `sphere` (a subdivided unit sphere) or
+    /// `soup` (random triangles in a cube) and COUNT the number of triangles, with an
+    /// optional k or m suffix; comma-separated for a scaling series, e.g.
+    /// `--procedural sphere:1k,sphere:100k,sphere:1m,soup:10m`.
+    #[arg(long, value_delimiter = ',')]
+    procedural: Vec<Procedural>,
+    /// Rays in each set (primary, diffuse, shadow).
+    #[arg(long, default_value_t = 1 << 18, value_parser = clap::value_parser!(u64).range(1..=1 << 28))]
+    rays: u64,
+    /// Thread counts to measure with, comma-separated [default: 1 and all cores].
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Vec<u32>,
+    /// Seconds each measurement repeats for at least (the best run is reported).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_seconds)]
+    min_time: f64,
+    /// Random seed of the ray sets and procedural meshes.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Camera position for the primary rays, X,Y,Z [default: in front of the mesh (+z)].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at, X,Y,Z [default: the centre of the mesh's bounds].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    look_at: Option<Vec3>,
+    /// Print one JSON document on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Also write the JSON document to this file (atomically).
+    #[arg(long)]
+    json_out: Option<PathBuf>,
+}
+
+fn parse_seconds(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (0.0..=3600.0).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a number of seconds between 0 and 3600"
+        )),
+    }
 }
 
 fn parse_vec3(s: &str) -> Result<Vec3, String> {
@@ -124,6 +177,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => render_command(args),
+        Command::Bench(args) => bench_command(args),
         Command::Info => info_command(),
     };
     match result {
@@ -195,20 +249,34 @@ fn render_command(args: RenderArgs) -> Result<()> {
         pool = pool.num_threads(n as usize);
     }
     let pool = pool.build().context("cannot start worker threads")?;
-    let device_config = args
-        .threads
-        .map(|n| format!("threads={n}"))
-        .unwrap_or_default();
-    let device = Device::new(&device_config)?;
-    let accel = EmbreeAccel::build(
-        &device,
-        &scene.mesh.positions,
-        &scene.mesh.triangles,
-        BuildQuality::High,
-    )
-    .context("cannot build the Embree scene")?;
-
-    let (film, stats) = pool.install(|| render_with_progress(&scene, &accel, &camera, &settings));
+    // One generic render per backend: the match picks the type, no dynamic dispatch.
+    let (film, stats, backend) = match args.accel {
+        AccelKind::Embree => {
+            let device_config = args
+                .threads
+                .map(|n| format!("threads={n}"))
+                .unwrap_or_default();
+            let device = Device::new(&device_config)?;
+            let accel = EmbreeAccel::build(
+                &device,
+                &scene.mesh.positions,
+                &scene.mesh.triangles,
+                BuildQuality::High,
+            )
+            .context("cannot build the Embree scene")?;
+            let (film, stats) =
+                pool.install(|| render_with_progress(&scene, &accel, &camera, &settings));
+            (film, stats, accel.name())
+        }
+        AccelKind::Bvh => {
+            let accel = pool
+                .install(|| Bvh::build(&scene.mesh.positions, &scene.mesh.triangles))
+                .context("cannot build the native BVH")?;
+            let (film, stats) =
+                pool.install(|| render_with_progress(&scene, &accel, &camera, &settings));
+            (film, stats, accel.name())
+        }
+    };
     film.save(&output)?;
     eprintln!(
         "wrote {}: {}x{}, {} spp, {} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{}",
@@ -216,7 +284,7 @@ fn render_command(args: RenderArgs) -> Result<()> {
         args.width,
         args.height,
         args.spp,
-        accel.name(),
+        backend,
         stats.seconds,
         stats.samples_per_second(),
         stats.mrays_per_second(),
@@ -245,6 +313,103 @@ fn render_with_progress<A: Accel>(
     let result = render::render(scene, accel, camera, settings, &|pixels| bar.inc(pixels));
     bar.finish_and_clear();
     result
+}
+
+fn bench_command(args: BenchArgs) -> Result<()> {
+    if args.meshes.is_empty() && args.procedural.is_empty() {
+        bail!("nothing to benchmark: give an OBJ mesh or --procedural KIND:COUNT");
+    }
+    if let Some(path) = &args.json_out {
+        film::check_writable(path)?;
+    }
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut threads: Vec<usize> = if args.threads.is_empty() {
+        vec![1, all]
+    } else {
+        args.threads.iter().map(|&t| t as usize).collect()
+    };
+    threads.sort_unstable();
+    threads.dedup();
+    let mut options = BenchOptions {
+        rays: args.rays as usize,
+        threads,
+        min_seconds: args.min_time,
+        seed: args.seed,
+        camera: None,
+    };
+    let mut meshes: Vec<Box<dyn Fn() -> Result<BenchMesh>>> = Vec::new();
+    for path in &args.meshes {
+        meshes.push(Box::new(move || {
+            let (scene, _) = load_obj(path)?;
+            Ok(BenchMesh {
+                name: path.file_name().map_or_else(
+                    || path.display().to_string(),
+                    |n| n.to_string_lossy().into(),
+                ),
+                positions: scene.mesh.positions,
+                triangles: scene.mesh.triangles,
+                lights: scene.emitters,
+            })
+        }));
+    }
+    for &p in &args.procedural {
+        let seed = args.seed;
+        meshes.push(Box::new(move || {
+            let (positions, triangles) = p.generate(seed);
+            Ok(BenchMesh {
+                name: p.to_string(),
+                positions,
+                triangles,
+                lights: Vec::new(),
+            })
+        }));
+    }
+
+    let mut results = Vec::new();
+    for load in meshes {
+        // One mesh in memory at a time: the large procedural ones are gigabytes.
+        let mesh = load()?;
+        options.camera = match (args.eye, args.look_at) {
+            (None, None) => None,
+            (eye, look_at) => {
+                let (lo, hi) = mesh.triangles.iter().flatten().fold(
+                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+                    |(lo, hi), &i| {
+                        let p = mesh.positions[i as usize];
+                        (lo.min(p), hi.max(p))
+                    },
+                );
+                let framing = CameraSettings::framing(lo, hi, 40.0);
+                Some(CameraSettings {
+                    eye: eye.unwrap_or(framing.eye),
+                    look_at: look_at.unwrap_or(framing.look_at),
+                    ..framing
+                })
+            }
+        };
+        eprintln!(
+            "benchmarking {}: {} triangles",
+            mesh.name,
+            mesh.triangles.len()
+        );
+        let measured = bench::run(&mesh, &options)
+            .with_context(|| format!("benchmark of {} failed", mesh.name))?;
+        results.extend(measured);
+    }
+
+    let table = bench::table(&results);
+    let version = Device::new("")?.info().version;
+    let json = serde_json::to_string_pretty(&bench::to_json(&results, &options, &version))?;
+    if let Some(path) = &args.json_out {
+        film::write_atomically(path, json.as_bytes())?;
+    }
+    if args.json {
+        eprint!("{table}");
+        println!("{json}");
+    } else {
+        print!("{table}");
+    }
+    Ok(())
 }
 
 fn info_command() -> Result<()> {

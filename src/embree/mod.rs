@@ -430,6 +430,11 @@ fn context(coherent: bool) -> sys::RTCIntersectContext {
 /// Packet of 8 rays laid out as Embree wants it (32-byte aligned).
 pub const PACKET_WIDTH: usize = 8;
 
+/// The lane mask of a packet query. Embree loads it with an aligned vector load, so it
+/// must be aligned to the packet size (32 bytes for 8 lanes), like the packet itself.
+#[repr(C, align(32))]
+struct ValidMask([i32; PACKET_WIDTH]);
+
 impl Scene {
     /// Bytes Embree allocated to build this scene.
     pub fn memory_bytes(&self) -> usize {
@@ -490,12 +495,12 @@ impl Scene {
     /// that the rays are similar (camera rays), which Embree can exploit.
     pub fn intersect8(&self, rays: &[Ray], hits: &mut [Option<Hit>], coherent: bool) {
         assert!(rays.len() <= PACKET_WIDTH && hits.len() >= rays.len());
-        let mut valid = [0i32; PACKET_WIDTH];
+        let mut valid = ValidMask([0; PACKET_WIDTH]);
         // SAFETY: RTCRayHit8 is plain old data; all-zero is valid and every active lane
         // is filled below.
         let mut packet: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid[lane] = -1;
+            valid.0[lane] = -1;
             let (r, h) = (&mut packet.ray, &mut packet.hit);
             r.org_x[lane] = ray.origin.x;
             r.org_y[lane] = ray.origin.y;
@@ -512,15 +517,15 @@ impl Scene {
         #[cfg(embree3)]
         {
             let mut ctx = context(coherent);
-            // SAFETY: committed scene; `valid` has 8 lanes; `packet` is 32-byte aligned
+            // SAFETY: committed scene; `valid` has 8 lanes and, like `packet`, is 32-byte aligned
             // (bindgen keeps RTCRayHit8's alignment) and lives for the call.
-            unsafe { sys::rtcIntersect8(valid.as_ptr(), self.raw, &mut ctx, &mut packet) };
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut ctx, &mut packet) };
         }
         #[cfg(embree4)]
         {
             let _ = coherent;
             // SAFETY: as above; null arguments mean defaults.
-            unsafe { sys::rtcIntersect8(valid.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
+            unsafe { sys::rtcIntersect8(valid.0.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
         }
         for (lane, hit) in hits.iter_mut().take(rays.len()).enumerate() {
             *hit = (packet.hit.geomID[lane] != INVALID_ID).then_some(Hit {
@@ -535,11 +540,11 @@ impl Scene {
     /// Occlusion of up to 8 rays as one packet (`rtcOccluded8`).
     pub fn occluded8(&self, rays: &[Ray], occluded: &mut [bool]) {
         assert!(rays.len() <= PACKET_WIDTH && occluded.len() >= rays.len());
-        let mut valid = [0i32; PACKET_WIDTH];
+        let mut valid = ValidMask([0; PACKET_WIDTH]);
         // SAFETY: RTCRay8 is plain old data; active lanes are filled below.
         let mut packet: sys::RTCRay8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
-            valid[lane] = -1;
+            valid.0[lane] = -1;
             packet.org_x[lane] = ray.origin.x;
             packet.org_y[lane] = ray.origin.y;
             packet.org_z[lane] = ray.origin.z;
@@ -553,13 +558,14 @@ impl Scene {
         #[cfg(embree3)]
         {
             let mut ctx = context(false);
-            // SAFETY: committed scene; 8 valid lanes; aligned packet alive for the call.
-            unsafe { sys::rtcOccluded8(valid.as_ptr(), self.raw, &mut ctx, &mut packet) };
+            // SAFETY: committed scene; 8 valid lanes; mask and packet 32-byte aligned and
+            // alive for the call.
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut ctx, &mut packet) };
         }
         #[cfg(embree4)]
         {
             // SAFETY: as above; null arguments mean defaults.
-            unsafe { sys::rtcOccluded8(valid.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
+            unsafe { sys::rtcOccluded8(valid.0.as_ptr(), self.raw, &mut packet, ptr::null_mut()) };
         }
         for (lane, o) in occluded.iter_mut().take(rays.len()).enumerate() {
             *o = packet.tfar[lane] == f32::NEG_INFINITY;

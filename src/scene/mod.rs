@@ -5,11 +5,13 @@ mod camera;
 mod material;
 mod mesh;
 mod obj;
+mod procedural;
 
 pub use camera::{Camera, CameraSettings};
 pub use material::{Bsdf, Material, MtlValues, Scatter, Texture};
 pub use mesh::{SurfacePoint, TriangleMesh};
 pub use obj::{load_obj, LoadReport};
+pub use procedural::{ParseProceduralError, Procedural, ProceduralKind, MAX_PROCEDURAL_TRIANGLES};
 
 use glam::Vec3;
 use std::path::PathBuf;
