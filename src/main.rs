@@ -319,8 +319,14 @@ fn bench_command(args: BenchArgs) -> Result<()> {
     if args.meshes.is_empty() && args.procedural.is_empty() {
         bail!("nothing to benchmark: give an OBJ mesh or --procedural KIND:COUNT");
     }
-    if let Some(path) = &args.json_out {
-        film::check_writable(path)?;
+    // Fail on an impossible output before spending minutes measuring.
+    if let Some(parent) = args.json_out.as_deref().and_then(Path::parent) {
+        if !parent.as_os_str().is_empty() && !parent.is_dir() {
+            bail!(
+                "cannot write the JSON output: {} is not a directory",
+                parent.display()
+            );
+        }
     }
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads: Vec<usize> = if args.threads.is_empty() {
