@@ -2,34 +2,36 @@
 //! 32 bins on each axis (parallel over rayon's workers), then collapsed into 4-wide
 //! nodes by repeatedly opening the child with the largest surface area.
 
-use glam::Vec3;
+use glam::{UVec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::node::{Child, Node4, MAX_LEAF};
 
-/// Bins per axis for the SAH sweep.
+/// Most bins per axis for the SAH sweep (fewer for small ranges, see [`bin_count`]).
 const BINS: usize = 32;
 /// Cost of visiting a node relative to one ray/triangle test.
 const TRAVERSAL_COST: f32 = 1.0;
+/// Ranges this small become leaves without a SAH evaluation.
+const SMALL_LEAF: usize = 4;
 /// Subtrees at least this large are built on two workers (`rayon::join`).
 const PARALLEL_SUBTREE: usize = 2048;
-/// Ranges at least this large are bounded and binned in parallel chunks.
+/// Ranges at least this large are binned in parallel chunks.
 const PARALLEL_SCAN: usize = 64 * 1024;
 /// Below this binary depth splits follow the SAH; deeper, the object median, so the
 /// tree depth (and the traversal stack) stays bounded whatever the mesh.
 const SAH_DEPTH: u32 = 48;
 
-/// An axis-aligned box; empty when `lo > hi`.
+/// An axis-aligned box; empty when `lo > hi`. SIMD-wide (`Vec3A`) for fast unions.
 #[derive(Clone, Copy, Debug)]
 pub struct Aabb {
-    pub lo: Vec3,
-    pub hi: Vec3,
+    pub lo: Vec3A,
+    pub hi: Vec3A,
 }
 
 impl Aabb {
     pub const EMPTY: Aabb = Aabb {
-        lo: Vec3::splat(f32::INFINITY),
-        hi: Vec3::splat(f32::NEG_INFINITY),
+        lo: Vec3A::splat(f32::INFINITY),
+        hi: Vec3A::splat(f32::NEG_INFINITY),
     };
 
     #[inline]
@@ -41,7 +43,7 @@ impl Aabb {
     }
 
     #[inline]
-    fn grow(self, p: Vec3) -> Aabb {
+    fn grow(self, p: Vec3A) -> Aabb {
         Aabb {
             lo: self.lo.min(p),
             hi: self.hi.max(p),
@@ -51,31 +53,44 @@ impl Aabb {
     /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
     #[inline]
     fn half_area(self) -> f32 {
-        let d = (self.hi - self.lo).max(Vec3::ZERO);
+        let d = (self.hi - self.lo).max(Vec3A::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     }
 }
 
-/// A triangle as the builder sees it: its box and its index in the mesh.
+/// A triangle as the builder sees it: its box, with its index in the mesh stored in
+/// the spare fourth lane of `hi` (32 bytes, two aligned SIMD loads).
 #[derive(Clone, Copy, Debug)]
+#[repr(C)]
 pub struct PrimRef {
-    pub lo: Vec3,
-    pub hi: Vec3,
-    pub id: u32,
+    lo: Vec4,
+    hi: Vec4,
 }
 
 impl PrimRef {
+    pub fn new(lo: Vec3A, hi: Vec3A, id: u32) -> Self {
+        PrimRef {
+            lo: lo.extend(0.0),
+            hi: hi.extend(f32::from_bits(id)),
+        }
+    }
+
+    #[inline]
+    pub fn id(&self) -> u32 {
+        self.hi.w.to_bits()
+    }
+
     /// Twice the centroid (the factor cancels in binning).
     #[inline]
-    fn centroid2(&self) -> Vec3 {
-        self.lo + self.hi
+    fn centroid2(&self) -> Vec3A {
+        Vec3A::from_vec4(self.lo) + Vec3A::from_vec4(self.hi)
     }
 
     #[inline]
     fn aabb(&self) -> Aabb {
         Aabb {
-            lo: self.lo,
-            hi: self.hi,
+            lo: Vec3A::from_vec4(self.lo),
+            hi: Vec3A::from_vec4(self.hi),
         }
     }
 }
@@ -126,14 +141,14 @@ struct Bins {
 }
 
 impl Bins {
-    fn empty() -> Box<Bins> {
-        Box::new(Bins {
+    fn empty() -> Bins {
+        Bins {
             bounds: [[Aabb::EMPTY; BINS]; 3],
             count: [[0; BINS]; 3],
-        })
+        }
     }
 
-    fn merge(mut self: Box<Self>, o: Box<Bins>) -> Box<Bins> {
+    fn merge(mut self, o: Bins) -> Bins {
         for axis in 0..3 {
             for b in 0..BINS {
                 self.bounds[axis][b] = self.bounds[axis][b].union(o.bounds[axis][b]);
@@ -144,55 +159,84 @@ impl Bins {
     }
 }
 
+/// Bins worth sweeping for `n` primitives: the sweep costs per bin, the binning per
+/// primitive, and small ranges gain little from fine bins.
+fn bin_count(n: usize) -> usize {
+    match n {
+        0..64 => 8,
+        64..1024 => 16,
+        _ => BINS,
+    }
+}
+
 /// Maps a (doubled) centroid to its bin on each axis.
 #[derive(Clone, Copy)]
 struct Binner {
-    origin: Vec3,
-    scale: Vec3,
+    origin: Vec3A,
+    scale: Vec3A,
+    bins: usize,
 }
 
+/// Adding 2²³ to a float in `[0, 2²³)` leaves its value, rounded to an integer, in the
+/// low mantissa bits: a float-to-integer conversion without the range checks of `as`.
+const ROUND_MAGIC: f32 = 8_388_608.0;
+
 impl Binner {
-    fn new(centroids: Aabb) -> Self {
+    fn new(centroids: Aabb, bins: usize) -> Self {
         let extent = centroids.hi - centroids.lo;
-        // Slightly under BINS so the largest centroid lands in the last bin, not past it.
-        let k = BINS as f32 * (1.0 - 1e-5);
-        let scale = Vec3::select(extent.cmpgt(Vec3::ZERO), k / extent, Vec3::ZERO);
+        // Centroids map to [0, bins - 0.5], which rounds to 0..bins-1.
+        let k = (bins as f32 - 0.5) * (1.0 - 1e-5);
+        let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
         Binner {
             origin: centroids.lo,
             scale,
+            bins,
         }
     }
 
+    /// The bin on every axis at once.
     #[inline]
-    fn bin(&self, c: Vec3, axis: usize) -> usize {
-        let f = (c[axis] - self.origin[axis]) * self.scale[axis];
-        (f as usize).min(BINS - 1)
+    fn bins(&self, c: Vec3A) -> UVec3 {
+        let f = ((c - self.origin) * self.scale).max(Vec3A::ZERO) + ROUND_MAGIC;
+        let b = UVec3::new(f.x.to_bits(), f.y.to_bits(), f.z.to_bits()) & 0xff;
+        b.min(UVec3::splat(self.bins as u32 - 1))
     }
 
-    fn fill(&self, refs: &[PrimRef]) -> Box<Bins> {
-        let mut bins = Bins::empty();
+    fn fill(&self, refs: &[PrimRef], bins: &mut Bins) {
         for r in refs {
-            let c = r.centroid2();
+            let b = self.bins(r.centroid2());
+            let aabb = r.aabb();
             for axis in 0..3 {
-                let b = self.bin(c, axis);
-                bins.bounds[axis][b] = bins.bounds[axis][b].union(r.aabb());
-                bins.count[axis][b] += 1;
+                let i = b[axis] as usize;
+                bins.bounds[axis][i] = bins.bounds[axis][i].union(aabb);
+                bins.count[axis][i] += 1;
             }
         }
-        bins
     }
 }
 
 /// The cheapest binned split: axis, number of bins on the left, SAH cost.
-fn best_split(refs: &[PrimRef], bounds: Aabb, centroids: Aabb) -> Option<(usize, usize, f32)> {
-    let binner = Binner::new(centroids);
-    let bins = if refs.len() >= PARALLEL_SCAN {
-        refs.par_chunks(PARALLEL_SCAN / 4)
-            .map(|c| binner.fill(c))
-            .reduce(Bins::empty, Bins::merge)
+fn best_split(refs: &[PrimRef], bounds: Aabb, binner: &Binner) -> Option<(usize, usize, f32)> {
+    let nb = binner.bins;
+    let mut bins = Bins::empty();
+    if refs.len() >= PARALLEL_SCAN {
+        bins = *refs
+            .par_chunks(PARALLEL_SCAN / 4)
+            .map(|c| {
+                let mut bins = Box::new(Bins::empty());
+                binner.fill(c, &mut bins);
+                bins
+            })
+            .reduce(
+                || Box::new(Bins::empty()),
+                |mut a, b| {
+                    *a = a.merge(*b);
+                    a
+                },
+            );
     } else {
-        binner.fill(refs)
-    };
+        binner.fill(refs, &mut bins);
+    }
     let inv_area = 1.0 / bounds.half_area().max(f32::MIN_POSITIVE);
     let mut best: Option<(usize, usize, f32)> = None;
     for axis in 0..3 {
@@ -202,21 +246,22 @@ fn best_split(refs: &[PrimRef], bounds: Aabb, centroids: Aabb) -> Option<(usize,
         // Sweep from the right, remembering area × count of every suffix.
         let mut right_cost = [0.0f32; BINS];
         let (mut box_r, mut n_r) = (Aabb::EMPTY, 0u32);
-        for b in (1..BINS).rev() {
+        for b in (1..nb).rev() {
             box_r = box_r.union(bins.bounds[axis][b]);
             n_r += bins.count[axis][b];
-            right_cost[b] = box_r.half_area() * n_r as f32;
+            right_cost[b] = box_r.half_area() * blocks(n_r as usize);
         }
         let (mut box_l, mut n_l) = (Aabb::EMPTY, 0u32);
-        for split in 1..BINS {
+        #[allow(clippy::needless_range_loop)] // `split` indexes two arrays at offsets
+        for split in 1..nb {
             box_l = box_l.union(bins.bounds[axis][split - 1]);
             n_l += bins.count[axis][split - 1];
             if n_l == 0 || n_l as usize == refs.len() {
                 continue;
             }
-            let cost =
-                TRAVERSAL_COST + (box_l.half_area() * n_l as f32 + right_cost[split]) * inv_area;
-            if best.is_none_or(|(_, _, c)| cost < c) {
+            let cost = TRAVERSAL_COST
+                + (box_l.half_area() * blocks(n_l as usize) + right_cost[split]) * inv_area;
+            if best.map_or(true, |(_, _, c)| cost < c) {
                 best = Some((axis, split, cost));
             }
         }
@@ -224,65 +269,86 @@ fn best_split(refs: &[PrimRef], bounds: Aabb, centroids: Aabb) -> Option<(usize,
     best
 }
 
-/// Moves the references that satisfy `left` to the front; returns how many there are.
-fn partition(refs: &mut [PrimRef], left: impl Fn(&PrimRef) -> bool) -> usize {
+/// Intersection cost of `n` triangles: leaves test them four at a time.
+#[inline]
+fn blocks(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
+/// Moves the references that satisfy `left` to the front; returns how many there are
+/// and the (box, centroid box) of each side, gathered in the same pass.
+fn partition(
+    refs: &mut [PrimRef],
+    left: impl Fn(&PrimRef) -> bool,
+) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
     let (mut i, mut j) = (0, refs.len());
+    let (mut lb, mut lc, mut rb, mut rc) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
     while i < j {
-        if left(&refs[i]) {
+        let r = refs[i];
+        if left(&r) {
+            lb = lb.union(r.aabb());
+            lc = lc.grow(r.centroid2());
             i += 1;
         } else {
+            rb = rb.union(r.aabb());
+            rc = rc.grow(r.centroid2());
             j -= 1;
             refs.swap(i, j);
         }
     }
-    i
+    (i, (lb, lc), (rb, rc))
 }
 
-fn build_node(refs: &mut [PrimRef], first: usize, depth: u32) -> BuildNode {
+fn build_node(
+    refs: &mut [PrimRef],
+    first: usize,
+    depth: u32,
+    (bounds, centroids): (Aabb, Aabb),
+) -> BuildNode {
     let n = refs.len();
-    let (bounds, centroids) = bounds_of(refs);
     let leaf = BuildNode::Leaf {
         bounds,
         first,
         count: n,
     };
-    if n == 1 {
+    // A 4-wide node tests four boxes at once, so splitting four triangles or fewer
+    // gains nothing the leaf test would not give.
+    if n <= SMALL_LEAF {
         return leaf;
     }
+    let binner = Binner::new(centroids, bin_count(n));
     let split = if depth < SAH_DEPTH {
-        best_split(refs, bounds, centroids)
+        best_split(refs, bounds, &binner)
     } else {
         None
     };
-    if n <= MAX_LEAF && split.is_none_or(|(_, _, cost)| cost >= n as f32) {
+    if n <= MAX_LEAF && split.map_or(true, |(_, _, cost)| cost >= blocks(n)) {
         return leaf;
     }
-    let mid = match split {
-        Some((axis, bins_left, _)) if depth < SAH_DEPTH => {
-            let binner = Binner::new(centroids);
-            partition(refs, |r| binner.bin(r.centroid2(), axis) < bins_left)
-        }
-        _ => {
+    let (mid, left_bounds, right_bounds) = match split {
+        Some((axis, bins_left, _)) => partition(refs, |r| {
+            (binner.bins(r.centroid2())[axis] as usize) < bins_left
+        }),
+        None => {
             // Object median on the widest centroid axis: always balanced.
-            let extent = centroids.hi - centroids.lo;
-            let axis = extent.max_position();
+            let axis = (centroids.hi - centroids.lo).max_position();
             refs.select_nth_unstable_by(n / 2, |a, b| {
                 a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
             });
-            n / 2
+            let (l, r) = refs.split_at(n / 2);
+            (n / 2, bounds_of(l), bounds_of(r))
         }
     };
-    let mid = if mid == 0 || mid == n { n / 2 } else { mid };
     let (left, right) = refs.split_at_mut(mid);
     let (a, b) = if n >= PARALLEL_SUBTREE {
         rayon::join(
-            || build_node(left, first, depth + 1),
-            || build_node(right, first + mid, depth + 1),
+            || build_node(left, first, depth + 1, left_bounds),
+            || build_node(right, first + mid, depth + 1, right_bounds),
         )
     } else {
         (
-            build_node(left, first, depth + 1),
-            build_node(right, first + mid, depth + 1),
+            build_node(left, first, depth + 1, left_bounds),
+            build_node(right, first + mid, depth + 1, right_bounds),
         )
     };
     BuildNode::Inner {
@@ -292,12 +358,17 @@ fn build_node(refs: &mut [PrimRef], first: usize, depth: u32) -> BuildNode {
 }
 
 /// Emits `node` (and its subtree) as 4-wide nodes, depth first; returns its reference.
-fn flatten(node: &BuildNode, nodes: &mut Vec<Node4>) -> Child {
+/// `leaf(first, count)` stores a leaf's references and returns the leaf's `Child`.
+fn flatten(
+    node: &BuildNode,
+    nodes: &mut Vec<Node4>,
+    leaf: &mut impl FnMut(usize, usize) -> Child,
+) -> Child {
     let BuildNode::Inner { children, .. } = node else {
         let BuildNode::Leaf { first, count, .. } = node else {
             unreachable!()
         };
-        return Child::leaf(*first, *count);
+        return leaf(*first, *count);
     };
     let mut kids: [&BuildNode; 4] = [&children[0], &children[1], &children[0], &children[0]];
     let mut len = 2;
@@ -324,19 +395,22 @@ fn flatten(node: &BuildNode, nodes: &mut Vec<Node4>) -> Child {
     let mut out = Node4::EMPTY;
     for (lane, kid) in kids[..len].iter().enumerate() {
         let b = kid.bounds();
-        let child = flatten(kid, nodes);
+        let child = flatten(kid, nodes, leaf);
         out.set(lane, b.lo.to_array(), b.hi.to_array(), child);
     }
     nodes[index] = out;
     Child::inner(index as u32)
 }
 
-/// Builds the 4-wide tree over `refs`, reordering them into leaf order. Node 0 is the
-/// root. `refs` must not be empty.
-pub fn build(refs: &mut [PrimRef]) -> Vec<Node4> {
+/// Builds the 4-wide tree over `refs`, reordering them into leaf order; `leaf(refs)`
+/// stores each leaf's references (in depth-first order) and returns its `Child`. Node 0
+/// is the root. `refs` must not be empty.
+pub fn build(refs: &mut [PrimRef], mut leaf: impl FnMut(&[PrimRef]) -> Child) -> Vec<Node4> {
     debug_assert!(!refs.is_empty());
-    let tree = build_node(refs, 0, 0);
-    let mut nodes = Vec::with_capacity(refs.len() / 2 + 1);
+    let tree = build_node(refs, 0, 0, bounds_of(refs));
+    let refs = &*refs;
+    let leaf = &mut |first: usize, count: usize| leaf(&refs[first..first + count]);
+    let mut nodes = Vec::with_capacity(refs.len() / 4 + 1);
     match &tree {
         BuildNode::Leaf { bounds, .. } => {
             // A root that is a leaf still gets a node, so traversal always starts at one.
@@ -345,12 +419,12 @@ pub fn build(refs: &mut [PrimRef]) -> Vec<Node4> {
                 0,
                 bounds.lo.to_array(),
                 bounds.hi.to_array(),
-                flatten(&tree, &mut nodes),
+                flatten(&tree, &mut nodes, leaf),
             );
             nodes.push(root);
         }
         BuildNode::Inner { .. } => {
-            flatten(&tree, &mut nodes);
+            flatten(&tree, &mut nodes, leaf);
         }
     }
     // Freeing millions of boxes is not free either; let a worker do it.
@@ -365,16 +439,14 @@ mod tests {
     #[test]
     fn partition_splits_by_predicate() {
         let mut refs: Vec<PrimRef> = (0..100)
-            .map(|i| PrimRef {
-                lo: Vec3::splat(i as f32),
-                hi: Vec3::splat(i as f32),
-                id: i,
-            })
+            .map(|i| PrimRef::new(Vec3A::splat(i as f32), Vec3A::splat(i as f32), i))
             .collect();
-        let mid = partition(&mut refs, |r| r.id % 3 == 0);
+        let (mid, (lb, lc), (rb, _)) = partition(&mut refs, |r| r.id() % 3 == 0);
         assert_eq!(mid, 34);
-        assert!(refs[..mid].iter().all(|r| r.id % 3 == 0));
-        assert!(refs[mid..].iter().all(|r| r.id % 3 != 0));
+        assert!(refs[..mid].iter().all(|r| r.id() % 3 == 0));
+        assert!(refs[mid..].iter().all(|r| r.id() % 3 != 0));
+        assert_eq!((lb.lo.x, lb.hi.x, lc.hi.x), (0.0, 99.0, 198.0));
+        assert_eq!((rb.lo.x, rb.hi.x), (1.0, 98.0));
     }
 
     #[test]
@@ -382,24 +454,22 @@ mod tests {
         // 10 000 small boxes on a jittered grid, plus many identical ones (median path).
         let mut refs: Vec<PrimRef> = (0..10_000u32)
             .map(|i| {
-                let p = Vec3::new(
+                let p = Vec3A::new(
                     (i % 97) as f32,
                     (i / 97 % 13) as f32 * 1.7,
                     (i * 7 % 31) as f32,
                 );
-                PrimRef {
-                    lo: p,
-                    hi: p + 0.5,
-                    id: i,
-                }
+                PrimRef::new(p, p + 0.5, i)
             })
-            .chain((10_000..10_500).map(|id| PrimRef {
-                lo: Vec3::ZERO,
-                hi: Vec3::ONE,
-                id,
-            }))
+            .chain((10_000..10_500).map(|id| PrimRef::new(Vec3A::ZERO, Vec3A::ONE, id)))
             .collect();
-        let nodes = build(&mut refs);
+        let mut order = Vec::new();
+        let nodes = build(&mut refs, |leaf| {
+            let first = order.len();
+            order.extend_from_slice(leaf);
+            Child::leaf(first, leaf.len())
+        });
+        let refs = order;
         let mut seen = vec![0u32; refs.len()];
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
@@ -410,9 +480,9 @@ mod tests {
                 }
                 let child = node.child[lane];
                 if child.is_leaf() {
-                    for k in child.triangles() {
+                    for k in child.range() {
                         seen[k] += 1;
-                        let r = refs[k];
+                        let r = refs[k].aabb();
                         for a in 0..3 {
                             assert!(node.lo[a][lane] <= r.lo[a] && r.hi[a] <= node.hi[a][lane]);
                         }
@@ -423,5 +493,8 @@ mod tests {
             }
         }
         assert!(seen.iter().all(|&s| s == 1));
+        let mut ids: Vec<u32> = refs.iter().map(|r| r.id()).collect();
+        ids.sort_unstable();
+        assert!(ids.iter().enumerate().all(|(i, &id)| id == i as u32));
     }
 }

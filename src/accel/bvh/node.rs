@@ -5,15 +5,16 @@
 pub const WIDTH: usize = 4;
 
 /// Most triangles a leaf may hold (the leaf code has 4 bits for the count).
-pub const MAX_LEAF: usize = 8;
+pub const MAX_LEAF: usize = 4;
 
-/// Most triangles a BVH can index (27 bits of the leaf code).
+/// Most triangles a BVH can index: leaves address blocks of up to four triangles with
+/// 27 bits, and there are never more blocks than triangles.
 pub const MAX_TRIANGLES: usize = 1 << 27;
 
 const LEAF_BIT: u32 = 1 << 31;
 
-/// A reference to a child: an inner node's index, or a leaf's run of triangles
-/// (bit 31 set, count - 1 in bits 27..31, first triangle in bits 0..27).
+/// A reference to a child: an inner node's index, or a leaf's run of triangle blocks
+/// (bit 31 set, count - 1 in bits 27..31, first block in bits 0..27).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Child(pub u32);
 
@@ -33,9 +34,9 @@ impl Child {
         self.0 & LEAF_BIT != 0
     }
 
-    /// The triangle range of a leaf.
+    /// The block range of a leaf.
     #[inline(always)]
-    pub fn triangles(self) -> std::ops::Range<usize> {
+    pub fn range(self) -> std::ops::Range<usize> {
         let first = (self.0 & (MAX_TRIANGLES as u32 - 1)) as usize;
         let count = ((self.0 >> 27) & 15) as usize + 1;
         first..first + count
@@ -82,7 +83,7 @@ mod tests {
         for (first, count) in [(0, 1), (5, 8), (MAX_TRIANGLES - 16, 16), (123_456, 3)] {
             let c = Child::leaf(first, count);
             assert!(c.is_leaf());
-            assert_eq!(c.triangles(), first..first + count);
+            assert_eq!(c.range(), first..first + count);
         }
         assert!(!Child::inner(42).is_leaf());
         assert_eq!(Child::inner(42).index(), 42);
