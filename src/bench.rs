@@ -371,6 +371,20 @@ impl Recorder<'_> {
         });
     }
 
+    /// A build that took `seconds`.
+    fn build(
+        &mut self,
+        backend: &'static str,
+        threads: usize,
+        quality: Option<&'static str>,
+        seconds: f64,
+        memory_bytes: usize,
+    ) {
+        let ms = Some(seconds * 1e3);
+        let (mode, api) = (Mode::Build, Api::Single);
+        self.push(backend, mode, api, threads, quality, ms, None, memory_bytes);
+    }
+
     /// Primary, diffuse and shadow throughput of one backend on every thread count.
     fn trace_single<A: Accel>(
         &mut self,
@@ -445,30 +459,22 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
             let (s, built) = best_time(min, || {
                 EmbreeAccel::build(&device, vertices, triangles, quality)
             });
-            let memory = built?.memory_bytes();
-            rec.push(
-                "embree",
-                Mode::Build,
-                Api::Single,
-                *threads,
-                Some(name),
-                Some(s * 1e3),
-                None,
-                memory,
-            );
+            rec.build("embree", *threads, Some(name), s, built?.memory_bytes());
         }
         let (s, built) = pool.install(|| best_time(min, || Bvh::build(vertices, triangles)));
-        let memory = built?.memory_bytes();
-        rec.push(
-            "bvh",
-            Mode::Build,
-            Api::Single,
-            *threads,
-            None,
-            Some(s * 1e3),
-            None,
-            memory,
-        );
+        rec.build("bvh", *threads, None, s, built?.memory_bytes());
+        #[cfg(feature = "peers")]
+        {
+            use crate::accel::peers::{BvhCrateAccel, ObvhsAccel};
+            let (s, built) =
+                pool.install(|| best_time(min, || ObvhsAccel::build(vertices, triangles)));
+            let memory = built.map_err(BenchError::Peer)?.memory_bytes();
+            rec.build("obvhs", *threads, None, s, memory);
+            let (s, built) =
+                pool.install(|| best_time(min, || BvhCrateAccel::build(vertices, triangles)));
+            let memory = built.map_err(BenchError::Peer)?.memory_bytes();
+            rec.build("bvh-crate", *threads, None, s, memory);
+        }
     }
 
     // Traversal.
@@ -549,6 +555,21 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
 
     rec.trace_single(&bvh, &rays, &pools, min);
     drop(bvh);
+
+    #[cfg(feature = "peers")]
+    {
+        use crate::accel::peers::{BvhCrateAccel, ObvhsAccel};
+        let all = &pools.last().expect("at least one thread count").1;
+        let obvhs = all
+            .install(|| ObvhsAccel::build(vertices, triangles))
+            .map_err(BenchError::Peer)?;
+        rec.trace_single(&obvhs, &rays, &pools, min);
+        drop(obvhs);
+        let crate_bvh = all
+            .install(|| BvhCrateAccel::build(vertices, triangles))
+            .map_err(BenchError::Peer)?;
+        rec.trace_single(&crate_bvh, &rays, &pools, min);
+    }
 
     Ok(rec.out)
 }
