@@ -135,22 +135,22 @@ fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
 
 /// Per axis, per bin: the box and count of the primitives whose centroid falls in it.
 #[derive(Clone, Copy)]
-struct Bins {
-    bounds: [[Aabb; BINS]; 3],
-    count: [[u32; BINS]; 3],
+struct Bins<const N: usize> {
+    bounds: [[Aabb; N]; 3],
+    count: [[u32; N]; 3],
 }
 
-impl Bins {
-    fn empty() -> Bins {
+impl<const N: usize> Bins<N> {
+    fn empty() -> Self {
         Bins {
-            bounds: [[Aabb::EMPTY; BINS]; 3],
-            count: [[0; BINS]; 3],
+            bounds: [[Aabb::EMPTY; N]; 3],
+            count: [[0; N]; 3],
         }
     }
 
-    fn merge(mut self, o: Bins) -> Bins {
+    fn merge(mut self, o: Self) -> Self {
         for axis in 0..3 {
-            for b in 0..BINS {
+            for b in 0..N {
                 self.bounds[axis][b] = self.bounds[axis][b].union(o.bounds[axis][b]);
                 self.count[axis][b] += o.count[axis][b];
             }
@@ -202,12 +202,13 @@ impl Binner {
         b.min(UVec3::splat(self.bins as u32 - 1))
     }
 
-    fn fill(&self, refs: &[PrimRef], bins: &mut Bins) {
+    fn fill<const N: usize>(&self, refs: &[PrimRef], bins: &mut Bins<N>) {
         for r in refs {
             let b = self.bins(r.centroid2());
             let aabb = r.aabb();
             for axis in 0..3 {
-                let i = b[axis] as usize;
+                // Already below N; saying so again lets the compiler drop bounds checks.
+                let i = (b[axis] as usize).min(N - 1);
                 bins.bounds[axis][i] = bins.bounds[axis][i].union(aabb);
                 bins.count[axis][i] += 1;
             }
@@ -215,10 +216,16 @@ impl Binner {
     }
 }
 
-/// The cheapest binned split: axis, number of bins on the left, SAH cost.
-fn best_split(refs: &[PrimRef], bounds: Aabb, binner: &Binner) -> Option<(usize, usize, f32)> {
-    let nb = binner.bins;
-    let mut bins = Bins::empty();
+/// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins):
+/// axis, number of bins on the left, SAH cost.
+fn best_split<const N: usize>(
+    refs: &[PrimRef],
+    bounds: Aabb,
+    binner: &Binner,
+) -> Option<(usize, usize, f32)> {
+    debug_assert_eq!(binner.bins, N);
+    let nb = N;
+    let mut bins = Bins::<N>::empty();
     if refs.len() >= PARALLEL_SCAN {
         bins = *refs
             .par_chunks(PARALLEL_SCAN / 4)
@@ -244,7 +251,7 @@ fn best_split(refs: &[PrimRef], bounds: Aabb, binner: &Binner) -> Option<(usize,
             continue;
         }
         // Sweep from the right, remembering area × count of every suffix.
-        let mut right_cost = [0.0f32; BINS];
+        let mut right_cost = [0.0f32; N];
         let (mut box_r, mut n_r) = (Aabb::EMPTY, 0u32);
         for b in (1..nb).rev() {
             box_r = box_r.union(bins.bounds[axis][b]);
@@ -317,10 +324,14 @@ fn build_node(
         return leaf;
     }
     let binner = Binner::new(centroids, bin_count(n));
-    let split = if depth < SAH_DEPTH {
-        best_split(refs, bounds, &binner)
-    } else {
+    let split = if depth >= SAH_DEPTH {
         None
+    } else {
+        match binner.bins {
+            8 => best_split::<8>(refs, bounds, &binner),
+            16 => best_split::<16>(refs, bounds, &binner),
+            _ => best_split::<BINS>(refs, bounds, &binner),
+        }
     };
     if n <= MAX_LEAF && split.map_or(true, |(_, _, cost)| cost >= blocks(n)) {
         return leaf;
