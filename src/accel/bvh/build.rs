@@ -10,7 +10,7 @@ use super::node::{Child, Node4, MAX_LEAF};
 /// Most bins per axis for the SAH sweep (fewer for small ranges, see [`bin_count`]).
 const BINS: usize = 32;
 /// Cost of visiting a node relative to one ray/triangle test.
-const TRAVERSAL_COST: f32 = 1.0;
+const TRAVERSAL_COST: f32 = 2.0;
 /// Ranges this small become leaves without a SAH evaluation.
 const SMALL_LEAF: usize = 4;
 /// Subtrees at least this large are built on two workers (`rayon::join`).
