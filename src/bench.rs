@@ -4,6 +4,7 @@
 //! rays, on one thread and on several, through the single-ray and the 8-ray packet API.
 
 use std::hint::black_box;
+use std::path::Path;
 use std::time::Instant;
 
 use glam::Vec3;
@@ -13,7 +14,7 @@ use serde_json::{json, Value};
 use crate::accel::{Accel, Bvh, BvhError, EmbreeAccel, Ray};
 use crate::embree::{BuildQuality, Device, EmbreeError, PACKET_WIDTH};
 use crate::sampling::{cosine_hemisphere, uniform_triangle, Onb, Rng};
-use crate::scene::CameraSettings;
+use crate::scene::{load_obj, CameraSettings, Procedural, SceneError};
 
 /// Why a benchmark could not run.
 #[derive(Debug, thiserror::Error)]
@@ -39,6 +40,45 @@ pub struct BenchMesh {
     pub positions: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     pub lights: Vec<u32>,
+}
+
+impl BenchMesh {
+    /// The triangles of an OBJ scene; its emissive triangles are the lights.
+    pub fn from_obj(path: &Path) -> Result<BenchMesh, SceneError> {
+        let (scene, _) = load_obj(path)?;
+        let name = path.file_name().map_or_else(
+            || path.display().to_string(),
+            |n| n.to_string_lossy().into(),
+        );
+        Ok(BenchMesh {
+            name,
+            positions: scene.mesh.positions,
+            triangles: scene.mesh.triangles,
+            lights: scene.emitters,
+        })
+    }
+
+    /// A procedural mesh, named by its specification (`sphere:1000000`).
+    pub fn procedural(p: Procedural, seed: u64) -> BenchMesh {
+        let (positions, triangles) = p.generate(seed);
+        BenchMesh {
+            name: p.to_string(),
+            positions,
+            triangles,
+            lights: Vec::new(),
+        }
+    }
+
+    /// Lower and upper corners of the box around the vertices the triangles use.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        self.triangles.iter().flatten().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &i| {
+                let p = self.positions[i as usize];
+                (lo.min(p), hi.max(p))
+            },
+        )
+    }
 }
 
 /// What to measure.
@@ -178,7 +218,7 @@ impl RaySets {
         seed: u64,
         camera: Option<CameraSettings>,
     ) -> Result<RaySets, BenchError> {
-        let (lo, hi) = bounds(mesh);
+        let (lo, hi) = mesh.bounds();
         let settings = camera.unwrap_or_else(|| CameraSettings::framing(lo, hi, 40.0));
         settings.validate().map_err(BenchError::Camera)?;
         let side = ((n as f64).sqrt().ceil() as u32).max(1);
@@ -247,16 +287,6 @@ impl RaySets {
             shadow,
         })
     }
-}
-
-fn bounds(mesh: &BenchMesh) -> (Vec3, Vec3) {
-    mesh.triangles.iter().flatten().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &i| {
-            let p = mesh.positions[i as usize];
-            (lo.min(p), hi.max(p))
-        },
-    )
 }
 
 fn pool(threads: usize) -> Result<rayon::ThreadPool, BenchError> {
@@ -668,4 +698,77 @@ pub fn table(results: &[Measurement]) -> String {
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere() -> (BenchMesh, EmbreeAccel) {
+        let mesh = BenchMesh::procedural("sphere:5k".parse().unwrap(), 1);
+        let device = Device::new("").unwrap();
+        let accel =
+            EmbreeAccel::build(&device, &mesh.positions, &mesh.triangles, BuildQuality::Low)
+                .unwrap();
+        (mesh, accel)
+    }
+
+    #[test]
+    fn ray_sets_start_on_the_visible_surface() {
+        let (mesh, embree) = sphere();
+        let rays = RaySets::generate(&mesh, &embree, 3000, 1, None).unwrap();
+        assert_eq!(rays.primary.len(), 3000);
+        assert_eq!(rays.diffuse.len(), 3000);
+        assert_eq!(rays.shadow.len(), 3000);
+        // The camera is outside the unit sphere, so bounces start just outside its
+        // (tessellated) surface and leave into the outer hemisphere.
+        for r in &rays.diffuse {
+            let d = r.origin.length();
+            assert!(d > 0.99 && d < 1.001, "origin at radius {d}");
+            assert!(r.dir.dot(r.origin) > -0.05, "{r:?} heads inwards");
+            assert!((r.dir.length() - 1.0).abs() < 1e-4);
+        }
+        // Shadow rays end just short of a point inside the bounding box.
+        for r in &rays.shadow {
+            let end = r.at(1.0);
+            assert!(end.abs().max_element() <= 1.0 + 1e-5);
+            assert!(r.tmax < 1.0 && r.tmax > 0.99);
+        }
+    }
+
+    #[test]
+    fn run_measures_every_backend_mode_and_thread_count() {
+        let (mesh, _) = sphere();
+        let options = BenchOptions {
+            rays: 512,
+            threads: vec![1, 2],
+            min_seconds: 0.0,
+            ..BenchOptions::default()
+        };
+        let results = run(&mesh, &options).unwrap();
+        for backend in ["embree", "bvh"] {
+            for mode in [Mode::Build, Mode::Primary, Mode::Diffuse, Mode::Shadow] {
+                for threads in [1, 2] {
+                    assert!(results
+                        .iter()
+                        .any(|m| m.backend == backend && m.mode == mode && m.threads == threads));
+                }
+            }
+        }
+        // Same rays, same answers.
+        let hits = |backend: &str, mode: Mode| {
+            results
+                .iter()
+                .find(|m| m.backend == backend && m.mode == mode && m.api == Api::Single)
+                .unwrap()
+                .hits
+        };
+        for mode in [Mode::Primary, Mode::Diffuse, Mode::Shadow] {
+            assert_eq!(hits("embree", mode), hits("bvh", mode), "{mode:?}");
+        }
+        let table = table(&results);
+        assert!(table.contains("sphere:") && table.contains("diffuse"));
+        let json = to_json(&results, &options, "test");
+        assert_eq!(json["results"].as_array().unwrap().len(), results.len());
+    }
 }

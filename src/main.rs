@@ -343,48 +343,25 @@ fn bench_command(args: BenchArgs) -> Result<()> {
         seed: args.seed,
         camera: None,
     };
-    let mut meshes: Vec<Box<dyn Fn() -> Result<BenchMesh>>> = Vec::new();
-    for path in &args.meshes {
-        meshes.push(Box::new(move || {
-            let (scene, _) = load_obj(path)?;
-            Ok(BenchMesh {
-                name: path.file_name().map_or_else(
-                    || path.display().to_string(),
-                    |n| n.to_string_lossy().into(),
-                ),
-                positions: scene.mesh.positions,
-                triangles: scene.mesh.triangles,
-                lights: scene.emitters,
-            })
-        }));
+    // Loaded one at a time when its turn comes: the large procedural meshes take
+    // gigabytes.
+    enum Source<'a> {
+        Obj(&'a Path),
+        Procedural(Procedural),
     }
-    for &p in &args.procedural {
-        let seed = args.seed;
-        meshes.push(Box::new(move || {
-            let (positions, triangles) = p.generate(seed);
-            Ok(BenchMesh {
-                name: p.to_string(),
-                positions,
-                triangles,
-                lights: Vec::new(),
-            })
-        }));
-    }
+    let sources = (args.meshes.iter().map(|p| Source::Obj(p)))
+        .chain(args.procedural.iter().map(|&p| Source::Procedural(p)));
 
     let mut results = Vec::new();
-    for load in meshes {
-        // One mesh in memory at a time: the large procedural ones are gigabytes.
-        let mesh = load()?;
+    for source in sources {
+        let mesh = match source {
+            Source::Obj(path) => BenchMesh::from_obj(path)?,
+            Source::Procedural(p) => BenchMesh::procedural(p, args.seed),
+        };
         options.camera = match (args.eye, args.look_at) {
             (None, None) => None,
             (eye, look_at) => {
-                let (lo, hi) = mesh.triangles.iter().flatten().fold(
-                    (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-                    |(lo, hi), &i| {
-                        let p = mesh.positions[i as usize];
-                        (lo.min(p), hi.max(p))
-                    },
-                );
+                let (lo, hi) = mesh.bounds();
                 let framing = CameraSettings::framing(lo, hi, 40.0);
                 Some(CameraSettings {
                     eye: eye.unwrap_or(framing.eye),

@@ -95,6 +95,116 @@ impl PrimRef {
     }
 }
 
+/// Triangles whose box has more than this many times the average surface area are
+/// split into several references with tighter boxes.
+const PRESPLIT_AREA: f32 = 8.0;
+/// At most this many halvings per triangle (up to 2^depth references).
+const PRESPLIT_DEPTH: u32 = 6;
+/// At most this many extra references, as a fraction of the triangle count.
+const PRESPLIT_BUDGET: f32 = 0.5;
+
+/// A convex polygon: a triangle clipped by a few axis-aligned planes.
+#[derive(Clone, Copy)]
+struct Polygon {
+    v: [Vec3A; 3 + PRESPLIT_DEPTH as usize],
+    n: usize,
+}
+
+impl Polygon {
+    fn bounds(&self) -> Aabb {
+        self.v[..self.n].iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
+    }
+
+    /// The parts below and above `at` on `axis` (one Sutherland–Hodgman step each).
+    fn split(&self, axis: usize, at: f32) -> (Polygon, Polygon) {
+        let empty = Polygon {
+            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
+            n: 0,
+        };
+        let (mut lo, mut hi) = (empty, empty);
+        let push = |poly: &mut Polygon, p: Vec3A| {
+            if poly.n < poly.v.len() {
+                poly.v[poly.n] = p;
+                poly.n += 1;
+            }
+        };
+        for i in 0..self.n {
+            let (a, b) = (self.v[i], self.v[(i + 1) % self.n]);
+            let (da, db) = (a[axis] - at, b[axis] - at);
+            if da <= 0.0 {
+                push(&mut lo, a);
+            }
+            if da >= 0.0 {
+                push(&mut hi, a);
+            }
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                let mut p = a + (b - a) * (da / (da - db));
+                p[axis] = at;
+                push(&mut lo, p);
+                push(&mut hi, p);
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// Early split clipping (Ernst and Greiner 2007): a triangle much larger than the
+/// average (a floor, a wall) gets a box far bigger than the geometry in most of it, and
+/// every ray near that box pays for it. Such triangles are cut at the middle of their
+/// box's longest axis, recursively, and each piece becomes a reference with the box of
+/// the clipped polygon. Leaves then hold some triangles more than once, which costs
+/// nothing in correctness: the nearest hit is the nearest hit.
+pub fn presplit(refs: &mut Vec<PrimRef>, corners: impl Fn(u32) -> [Vec3A; 3]) {
+    if refs.is_empty() {
+        return;
+    }
+    let mean = refs.iter().map(|r| r.aabb().half_area()).sum::<f32>() / refs.len() as f32;
+    let threshold = PRESPLIT_AREA * mean;
+    let mut budget = (refs.len() as f32 * PRESPLIT_BUDGET) as usize;
+    let large: Vec<usize> = (0..refs.len())
+        .filter(|&i| refs[i].aabb().half_area() > threshold)
+        .collect();
+    for i in large {
+        let id = refs[i].id();
+        let [a, b, c] = corners(id);
+        let mut tri = Polygon {
+            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
+            n: 3,
+        };
+        tri.v[..3].copy_from_slice(&[a, b, c]);
+        let mut pieces = Vec::new();
+        let mut todo = vec![(tri, 0u32)];
+        while let Some((poly, depth)) = todo.pop() {
+            let bounds = poly.bounds();
+            if depth >= PRESPLIT_DEPTH || bounds.half_area() <= threshold || budget == 0 {
+                pieces.push(bounds);
+                continue;
+            }
+            let axis = (bounds.hi - bounds.lo).max_position();
+            let at = 0.5 * (bounds.lo[axis] + bounds.hi[axis]);
+            let (lo, hi) = poly.split(axis, at);
+            budget -= 1;
+            for part in [lo, hi] {
+                if part.n >= 3 {
+                    todo.push((part, depth + 1));
+                }
+            }
+        }
+        let whole = refs[i].aabb();
+        for (k, piece) in pieces.iter().enumerate() {
+            // Clipping must not grow a box past the triangle's own (rounding).
+            let lo = piece.lo.max(whole.lo);
+            let hi = piece.hi.min(whole.hi);
+            let r = PrimRef::new(lo, hi, id);
+            if k == 0 {
+                refs[i] = r;
+            } else {
+                refs.push(r);
+            }
+        }
+    }
+}
+
 /// The binary tree the SAH produces; leaves are ranges of the reordered references.
 enum BuildNode {
     Leaf {

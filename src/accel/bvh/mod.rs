@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use self::build::PrimRef;
-use self::node::{Child, Node4, MAX_TRIANGLES, WIDTH};
+use self::node::{Child, Node4, MAX_LEAF, MAX_TRIANGLES, WIDTH};
 use self::triangle::{RayShear, TriBlock};
 use super::{Accel, Hit, Ray};
 
@@ -125,16 +125,30 @@ impl Bvh {
                 blocks: Vec::new(),
             });
         }
+        build::presplit(&mut refs, |id| {
+            corners(&triangles[id as usize]).map(Vec3A::from)
+        });
         let mut blocks = Vec::with_capacity(refs.len() / 3);
         let nodes = build::build(&mut refs, |leaf| {
+            // Pieces of one split triangle may share a leaf: test it once.
+            let mut ids = [0u32; MAX_LEAF];
+            for (slot, r) in ids.iter_mut().zip(leaf) {
+                *slot = r.id();
+            }
+            let ids = &mut ids[..leaf.len()];
+            ids.sort_unstable();
+            let mut unique = 0;
+            for k in 0..ids.len() {
+                if unique == 0 || ids[k] != ids[unique - 1] {
+                    ids[unique] = ids[k];
+                    unique += 1;
+                }
+            }
             let first = blocks.len();
-            for chunk in leaf.chunks(4) {
+            for chunk in ids[..unique].chunks(4) {
                 let mut tris = [([[0.0; 3]; 3], 0); 4];
-                for (slot, r) in tris.iter_mut().zip(chunk) {
-                    *slot = (
-                        corners(&triangles[r.id() as usize]).map(|v| v.to_array()),
-                        r.id(),
-                    );
+                for (slot, &id) in tris.iter_mut().zip(chunk) {
+                    *slot = (corners(&triangles[id as usize]).map(|v| v.to_array()), id);
                 }
                 blocks.push(TriBlock::new(&tris[..chunk.len()]));
             }
