@@ -166,6 +166,8 @@ pub struct Measurement {
     pub hits: usize,
     /// Bytes of the structure measured (for traversal: the one traced).
     pub memory_bytes: usize,
+    /// See [`Traced::cpu_per_wall`].
+    pub cpu_per_wall: Option<f64>,
 }
 
 impl Measurement {
@@ -190,6 +192,9 @@ impl Measurement {
             obj.insert("mrays_per_s".into(), m.into());
             obj.insert("rays".into(), self.rays.into());
             obj.insert("hits".into(), self.hits.into());
+            if let Some(c) = self.cpu_per_wall {
+                obj.insert("cpu_per_wall".into(), c.into());
+            }
         }
         v
     }
@@ -318,19 +323,54 @@ pub fn best_time<T>(min_seconds: f64, mut f: impl FnMut() -> T) -> (f64, T) {
 /// Rays per work item handed to a rayon worker.
 const CHUNK: usize = 512;
 
-/// Traces `rays` on `pool`; `trace(chunk)` returns how many hit. Returns
-/// (Mrays/s, hits) from the best pass.
+/// The outcome of tracing one ray set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Traced {
+    /// Millions of rays per second, from the best pass.
+    pub mrays_per_s: f64,
+    pub rays: usize,
+    pub hits: usize,
+    /// Processor seconds the whole process used per wall-clock second while measuring
+    /// (Linux only): near the thread count when the threads really ran in parallel,
+    /// lower when other programs took the cores, which caps any speed-up.
+    pub cpu_per_wall: Option<f64>,
+}
+
+/// Processor time this process has used so far, from `/proc/self/stat` (user + system
+/// clock ticks, which Linux counts at 100 per second).
+fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are the 12th and
+    // 13th of them (the 14th and 15th of the line).
+    let mut fields = stat.rsplit_once(')')?.1.split_whitespace().skip(11);
+    let utime: f64 = fields.next()?.parse().ok()?;
+    let stime: f64 = fields.next()?.parse().ok()?;
+    Some((utime + stime) / 100.0)
+}
+
+/// Traces `rays` on `pool`; `trace(chunk)` returns how many hit.
 fn throughput(
     pool: &rayon::ThreadPool,
     rays: &[Ray],
     min_seconds: f64,
     trace: impl Fn(&[Ray]) -> usize + Sync,
-) -> (f64, usize) {
+) -> Traced {
     pool.install(|| {
+        let (cpu, wall) = (process_cpu_seconds(), Instant::now());
         let (seconds, hits) = best_time(min_seconds, || {
             rays.par_chunks(CHUNK).map(&trace).sum::<usize>()
         });
-        (rays.len() as f64 / seconds / 1e6, hits)
+        let wall = wall.elapsed().as_secs_f64();
+        let cpu_per_wall = cpu
+            .zip(process_cpu_seconds())
+            .filter(|_| wall > 0.05)
+            .map(|(a, b)| (b - a) / wall);
+        Traced {
+            mrays_per_s: rays.len() as f64 / seconds / 1e6,
+            rays: rays.len(),
+            hits,
+            cpu_per_wall,
+        }
     })
 }
 
@@ -382,7 +422,7 @@ impl Recorder<'_> {
         threads: usize,
         quality: Option<&'static str>,
         build_ms: Option<f64>,
-        traced: Option<(f64, usize, usize)>,
+        traced: Option<Traced>,
         memory_bytes: usize,
     ) {
         self.out.push(Measurement {
@@ -394,9 +434,10 @@ impl Recorder<'_> {
             threads,
             quality,
             build_ms,
-            mrays_per_s: traced.map(|t| t.0),
-            rays: traced.map_or(0, |t| t.1),
-            hits: traced.map_or(0, |t| t.2),
+            mrays_per_s: traced.map(|t| t.mrays_per_s),
+            rays: traced.map_or(0, |t| t.rays),
+            hits: traced.map_or(0, |t| t.hits),
+            cpu_per_wall: traced.and_then(|t| t.cpu_per_wall),
             memory_bytes,
         });
     }
@@ -429,8 +470,7 @@ impl Recorder<'_> {
                 (Mode::Primary, &rays.primary),
                 (Mode::Diffuse, &rays.diffuse),
             ] {
-                let (m, hits) = throughput(pool, set, min_seconds, |c| count_hits(accel, c));
-                let traced = Some((m, set.len(), hits));
+                let traced = Some(throughput(pool, set, min_seconds, |c| count_hits(accel, c)));
                 self.push(
                     accel.name(),
                     mode,
@@ -442,10 +482,9 @@ impl Recorder<'_> {
                     memory,
                 );
             }
-            let (m, hits) = throughput(pool, &rays.shadow, min_seconds, |c| {
+            let traced = Some(throughput(pool, &rays.shadow, min_seconds, |c| {
                 count_occluded(accel, c)
-            });
-            let traced = Some((m, rays.shadow.len(), hits));
+            }));
             self.push(
                 accel.name(),
                 Mode::Shadow,
@@ -521,8 +560,9 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
     let memory = embree.memory_bytes();
     for (threads, pool) in &pools {
         let t = *threads;
-        let (m, hits) = throughput(pool, &rays.primary, min, |c| count_hits8(&embree, c, true));
-        let traced = Some((m, rays.primary.len(), hits));
+        let traced = Some(throughput(pool, &rays.primary, min, |c| {
+            count_hits8(&embree, c, true)
+        }));
         rec.push(
             "embree",
             Mode::Primary,
@@ -533,8 +573,9 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
             traced,
             memory,
         );
-        let (m, hits) = throughput(pool, &rays.diffuse, min, |c| count_hits8(&embree, c, false));
-        let traced = Some((m, rays.diffuse.len(), hits));
+        let traced = Some(throughput(pool, &rays.diffuse, min, |c| {
+            count_hits8(&embree, c, false)
+        }));
         rec.push(
             "embree",
             Mode::Diffuse,
@@ -545,8 +586,9 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
             traced,
             memory,
         );
-        let (m, hits) = throughput(pool, &rays.shadow, min, |c| count_occluded8(&embree, c));
-        let traced = Some((m, rays.shadow.len(), hits));
+        let traced = Some(throughput(pool, &rays.shadow, min, |c| {
+            count_occluded8(&embree, c)
+        }));
         rec.push(
             "embree",
             Mode::Shadow,
@@ -568,8 +610,7 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
                 ..*r
             })
             .collect();
-        let (m, hits) = throughput(pool, &empty, min, |c| count_hits(&embree, c));
-        let traced = Some((m, empty.len(), hits));
+        let traced = Some(throughput(pool, &empty, min, |c| count_hits(&embree, c)));
         rec.push(
             "embree",
             Mode::CallOverhead,
@@ -615,8 +656,10 @@ pub fn to_json(results: &[Measurement], options: &BenchOptions, embree_version: 
     })
 }
 
-/// The human-readable table: per mesh, builds then traversal, with the native/Embree
-/// ratio of each traversal row and the speed-up over one thread.
+/// The human-readable table: per mesh, builds then traversal, with the ratio to Embree
+/// (medium quality for builds, single rays for traversal), the speed-up over the
+/// fewest threads, and how many cores the process kept busy while tracing (`cpu`: a
+/// speed-up cannot exceed it, so a low value means other programs held the cores).
 pub fn table(results: &[Measurement]) -> String {
     use std::fmt::Write;
     let mut s = String::new();
@@ -632,8 +675,17 @@ pub fn table(results: &[Measurement]) -> String {
         );
         let _ = writeln!(
             s,
-            "{:<8} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>10} {:>7}",
-            "backend", "mode", "api", "thr", "build ms", "Mrays/s", "vs embree", "vs 1 thr", "MB"
+            "{:<9} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>9} {:>5} {:>7}",
+            "backend",
+            "mode",
+            "api",
+            "thr",
+            "build ms",
+            "Mrays/s",
+            "vs embree",
+            "vs 1 thr",
+            "cpu",
+            "MB"
         );
         let find = |backend: &str, mode: Mode, api: Api, threads: usize, quality| {
             rows.iter()
@@ -684,7 +736,7 @@ pub fn table(results: &[Measurement]) -> String {
             };
             let _ = writeln!(
                 s,
-                "{:<8} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>10} {:>7.1}",
+                "{:<9} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>9} {:>5} {:>7.1}",
                 m.backend,
                 name,
                 m.api.as_str(),
@@ -693,6 +745,9 @@ pub fn table(results: &[Measurement]) -> String {
                 rate,
                 base.unwrap_or_default(),
                 scale.unwrap_or_default(),
+                m.cpu_per_wall
+                    .map(|c| format!("{c:.2}"))
+                    .unwrap_or_default(),
                 m.memory_bytes as f64 / 1e6
             );
         }
