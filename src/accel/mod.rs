@@ -1,8 +1,12 @@
 //! Ray/triangle-mesh acceleration structures behind one trait, so the integrator and the
 //! benchmarks can run the same rays through Embree or through ember's own BVH.
 
+pub mod bvh;
 mod embree;
+#[cfg(feature = "peers")]
+pub mod peers;
 
+pub use self::bvh::{Bvh, BvhError};
 pub use self::embree::EmbreeAccel;
 
 use glam::Vec3;

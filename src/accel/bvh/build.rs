@@ -1,0 +1,621 @@
+//! The binned surface-area-heuristic (SAH) builder: a binary tree split by the best of
+//! 32 bins on each axis (parallel over rayon's workers), then collapsed into 4-wide
+//! nodes by repeatedly opening the child with the largest surface area.
+
+use glam::{UVec3, Vec3A, Vec4};
+use rayon::prelude::*;
+
+use super::node::{Child, Node4, MAX_LEAF};
+
+/// Most bins per axis for the SAH sweep (fewer for small ranges, see [`bin_count`]).
+const BINS: usize = 32;
+/// Cost of visiting a node relative to one ray/triangle test.
+const TRAVERSAL_COST: f32 = 2.0;
+/// Ranges this small become leaves without a SAH evaluation.
+const SMALL_LEAF: usize = 4;
+/// Subtrees at least this large are built on two workers (`rayon::join`).
+const PARALLEL_SUBTREE: usize = 2048;
+/// Ranges at least this large are binned in parallel chunks.
+const PARALLEL_SCAN: usize = 64 * 1024;
+/// Below this binary depth splits follow the SAH; deeper, the object median, so the
+/// tree depth (and the traversal stack) stays bounded whatever the mesh.
+const SAH_DEPTH: u32 = 48;
+
+/// An axis-aligned box; empty when `lo > hi`. SIMD-wide (`Vec3A`) for fast unions.
+#[derive(Clone, Copy, Debug)]
+pub struct Aabb {
+    pub lo: Vec3A,
+    pub hi: Vec3A,
+}
+
+impl Aabb {
+    pub const EMPTY: Aabb = Aabb {
+        lo: Vec3A::splat(f32::INFINITY),
+        hi: Vec3A::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline]
+    fn union(self, o: Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    #[inline]
+    fn grow(self, p: Vec3A) -> Aabb {
+        Aabb {
+            lo: self.lo.min(p),
+            hi: self.hi.max(p),
+        }
+    }
+
+    /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
+    #[inline]
+    fn half_area(self) -> f32 {
+        let d = (self.hi - self.lo).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+}
+
+/// A triangle as the builder sees it: its box, with its index in the mesh stored in
+/// the spare fourth lane of `hi` (32 bytes, two aligned SIMD loads).
+#[derive(Clone, Copy, Debug)]
+#[repr(C)]
+pub struct PrimRef {
+    lo: Vec4,
+    hi: Vec4,
+}
+
+impl PrimRef {
+    pub fn new(lo: Vec3A, hi: Vec3A, id: u32) -> Self {
+        PrimRef {
+            lo: lo.extend(0.0),
+            hi: hi.extend(f32::from_bits(id)),
+        }
+    }
+
+    #[inline]
+    pub fn id(&self) -> u32 {
+        self.hi.w.to_bits()
+    }
+
+    /// Twice the centroid (the factor cancels in binning).
+    #[inline]
+    fn centroid2(&self) -> Vec3A {
+        Vec3A::from_vec4(self.lo) + Vec3A::from_vec4(self.hi)
+    }
+
+    #[inline]
+    fn aabb(&self) -> Aabb {
+        Aabb {
+            lo: Vec3A::from_vec4(self.lo),
+            hi: Vec3A::from_vec4(self.hi),
+        }
+    }
+}
+
+/// Triangles whose box has more than this many times the average surface area are
+/// split into several references with tighter boxes.
+const PRESPLIT_AREA: f32 = 8.0;
+/// At most this many halvings per triangle (up to 2^depth references).
+const PRESPLIT_DEPTH: u32 = 6;
+/// At most this many extra references, as a fraction of the triangle count.
+const PRESPLIT_BUDGET: f32 = 0.5;
+
+/// A convex polygon: a triangle clipped by a few axis-aligned planes.
+#[derive(Clone, Copy)]
+struct Polygon {
+    v: [Vec3A; 3 + PRESPLIT_DEPTH as usize],
+    n: usize,
+}
+
+impl Polygon {
+    fn bounds(&self) -> Aabb {
+        self.v[..self.n].iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
+    }
+
+    /// The parts below and above `at` on `axis` (one Sutherland–Hodgman step each).
+    fn split(&self, axis: usize, at: f32) -> (Polygon, Polygon) {
+        let empty = Polygon {
+            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
+            n: 0,
+        };
+        let (mut lo, mut hi) = (empty, empty);
+        let push = |poly: &mut Polygon, p: Vec3A| {
+            if poly.n < poly.v.len() {
+                poly.v[poly.n] = p;
+                poly.n += 1;
+            }
+        };
+        for i in 0..self.n {
+            let (a, b) = (self.v[i], self.v[(i + 1) % self.n]);
+            let (da, db) = (a[axis] - at, b[axis] - at);
+            if da <= 0.0 {
+                push(&mut lo, a);
+            }
+            if da >= 0.0 {
+                push(&mut hi, a);
+            }
+            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
+                let mut p = a + (b - a) * (da / (da - db));
+                p[axis] = at;
+                push(&mut lo, p);
+                push(&mut hi, p);
+            }
+        }
+        (lo, hi)
+    }
+}
+
+/// Early split clipping (Ernst and Greiner 2007): a triangle much larger than the
+/// average (a floor, a wall) gets a box far bigger than the geometry in most of it, and
+/// every ray near that box pays for it. Such triangles are cut at the middle of their
+/// box's longest axis, recursively, and each piece becomes a reference with the box of
+/// the clipped polygon. Leaves then hold some triangles more than once, which costs
+/// nothing in correctness: the nearest hit is the nearest hit.
+pub fn presplit(refs: &mut Vec<PrimRef>, corners: impl Fn(u32) -> [Vec3A; 3]) {
+    if refs.is_empty() {
+        return;
+    }
+    let mean = refs.iter().map(|r| r.aabb().half_area()).sum::<f32>() / refs.len() as f32;
+    let threshold = PRESPLIT_AREA * mean;
+    let mut budget = (refs.len() as f32 * PRESPLIT_BUDGET) as usize;
+    let large: Vec<usize> = (0..refs.len())
+        .filter(|&i| refs[i].aabb().half_area() > threshold)
+        .collect();
+    for i in large {
+        let id = refs[i].id();
+        let [a, b, c] = corners(id);
+        let mut tri = Polygon {
+            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
+            n: 3,
+        };
+        tri.v[..3].copy_from_slice(&[a, b, c]);
+        let mut pieces = Vec::new();
+        let mut todo = vec![(tri, 0u32)];
+        while let Some((poly, depth)) = todo.pop() {
+            let bounds = poly.bounds();
+            if depth >= PRESPLIT_DEPTH || bounds.half_area() <= threshold || budget == 0 {
+                pieces.push(bounds);
+                continue;
+            }
+            let axis = (bounds.hi - bounds.lo).max_position();
+            let at = 0.5 * (bounds.lo[axis] + bounds.hi[axis]);
+            let (lo, hi) = poly.split(axis, at);
+            budget -= 1;
+            for part in [lo, hi] {
+                if part.n >= 3 {
+                    todo.push((part, depth + 1));
+                }
+            }
+        }
+        let whole = refs[i].aabb();
+        for (k, piece) in pieces.iter().enumerate() {
+            // Clipping must not grow a box past the triangle's own (rounding).
+            let lo = piece.lo.max(whole.lo);
+            let hi = piece.hi.min(whole.hi);
+            let r = PrimRef::new(lo, hi, id);
+            if k == 0 {
+                refs[i] = r;
+            } else {
+                refs.push(r);
+            }
+        }
+    }
+}
+
+/// The binary tree the SAH produces; leaves are ranges of the reordered references.
+enum BuildNode {
+    Leaf {
+        bounds: Aabb,
+        first: usize,
+        count: usize,
+    },
+    Inner {
+        bounds: Aabb,
+        children: Box<[BuildNode; 2]>,
+    },
+}
+
+impl BuildNode {
+    fn bounds(&self) -> Aabb {
+        match self {
+            BuildNode::Leaf { bounds, .. } | BuildNode::Inner { bounds, .. } => *bounds,
+        }
+    }
+}
+
+/// Box of the primitives and box of their (doubled) centroids.
+fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let fold = |refs: &[PrimRef]| {
+        refs.iter().fold((Aabb::EMPTY, Aabb::EMPTY), |(b, c), r| {
+            (b.union(r.aabb()), c.grow(r.centroid2()))
+        })
+    };
+    if refs.len() >= PARALLEL_SCAN {
+        refs.par_chunks(PARALLEL_SCAN / 4).map(fold).reduce(
+            || (Aabb::EMPTY, Aabb::EMPTY),
+            |(a, b), (c, d)| (a.union(c), b.union(d)),
+        )
+    } else {
+        fold(refs)
+    }
+}
+
+/// Per axis, per bin: the box and count of the primitives whose centroid falls in it.
+#[derive(Clone, Copy)]
+struct Bins<const N: usize> {
+    bounds: [[Aabb; N]; 3],
+    count: [[u32; N]; 3],
+}
+
+impl<const N: usize> Bins<N> {
+    fn empty() -> Self {
+        Bins {
+            bounds: [[Aabb::EMPTY; N]; 3],
+            count: [[0; N]; 3],
+        }
+    }
+
+    fn merge(mut self, o: Self) -> Self {
+        for axis in 0..3 {
+            for b in 0..N {
+                self.bounds[axis][b] = self.bounds[axis][b].union(o.bounds[axis][b]);
+                self.count[axis][b] += o.count[axis][b];
+            }
+        }
+        self
+    }
+}
+
+/// Bins worth sweeping for `n` primitives: the sweep costs per bin, the binning per
+/// primitive, and small ranges gain little from fine bins.
+fn bin_count(n: usize) -> usize {
+    match n {
+        0..64 => 8,
+        64..1024 => 16,
+        _ => BINS,
+    }
+}
+
+/// Maps a (doubled) centroid to its bin on each axis.
+#[derive(Clone, Copy)]
+struct Binner {
+    origin: Vec3A,
+    scale: Vec3A,
+    bins: usize,
+}
+
+/// Adding 2²³ to a float in `[0, 2²³)` leaves its value, rounded to an integer, in the
+/// low mantissa bits: a float-to-integer conversion without the range checks of `as`.
+const ROUND_MAGIC: f32 = 8_388_608.0;
+
+impl Binner {
+    fn new(centroids: Aabb, bins: usize) -> Self {
+        let extent = centroids.hi - centroids.lo;
+        // Centroids map to [0, bins - 0.5], which rounds to 0..bins-1.
+        let k = (bins as f32 - 0.5) * (1.0 - 1e-5);
+        let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
+        Binner {
+            origin: centroids.lo,
+            scale,
+            bins,
+        }
+    }
+
+    /// The bin on every axis at once.
+    #[inline]
+    fn bins(&self, c: Vec3A) -> UVec3 {
+        let f = ((c - self.origin) * self.scale).max(Vec3A::ZERO) + ROUND_MAGIC;
+        let b = UVec3::new(f.x.to_bits(), f.y.to_bits(), f.z.to_bits()) & 0xff;
+        b.min(UVec3::splat(self.bins as u32 - 1))
+    }
+
+    fn fill<const N: usize>(&self, refs: &[PrimRef], bins: &mut Bins<N>) {
+        for r in refs {
+            let b = self.bins(r.centroid2());
+            let aabb = r.aabb();
+            for axis in 0..3 {
+                // Already below N; saying so again lets the compiler drop bounds checks.
+                let i = (b[axis] as usize).min(N - 1);
+                bins.bounds[axis][i] = bins.bounds[axis][i].union(aabb);
+                bins.count[axis][i] += 1;
+            }
+        }
+    }
+}
+
+/// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins):
+/// axis, number of bins on the left, SAH cost.
+fn best_split<const N: usize>(
+    refs: &[PrimRef],
+    bounds: Aabb,
+    binner: &Binner,
+) -> Option<(usize, usize, f32)> {
+    debug_assert_eq!(binner.bins, N);
+    let nb = N;
+    let mut bins = Bins::<N>::empty();
+    if refs.len() >= PARALLEL_SCAN {
+        bins = *refs
+            .par_chunks(PARALLEL_SCAN / 4)
+            .map(|c| {
+                let mut bins = Box::new(Bins::empty());
+                binner.fill(c, &mut bins);
+                bins
+            })
+            .reduce(
+                || Box::new(Bins::empty()),
+                |mut a, b| {
+                    *a = a.merge(*b);
+                    a
+                },
+            );
+    } else {
+        binner.fill(refs, &mut bins);
+    }
+    let inv_area = 1.0 / bounds.half_area().max(f32::MIN_POSITIVE);
+    let mut best: Option<(usize, usize, f32)> = None;
+    for axis in 0..3 {
+        if binner.scale[axis] == 0.0 {
+            continue;
+        }
+        // Sweep from the right, remembering area × count of every suffix.
+        let mut right_cost = [0.0f32; N];
+        let (mut box_r, mut n_r) = (Aabb::EMPTY, 0u32);
+        for b in (1..nb).rev() {
+            box_r = box_r.union(bins.bounds[axis][b]);
+            n_r += bins.count[axis][b];
+            right_cost[b] = box_r.half_area() * blocks(n_r as usize);
+        }
+        let (mut box_l, mut n_l) = (Aabb::EMPTY, 0u32);
+        #[allow(clippy::needless_range_loop)] // `split` indexes two arrays at offsets
+        for split in 1..nb {
+            box_l = box_l.union(bins.bounds[axis][split - 1]);
+            n_l += bins.count[axis][split - 1];
+            if n_l == 0 || n_l as usize == refs.len() {
+                continue;
+            }
+            let cost = TRAVERSAL_COST
+                + (box_l.half_area() * blocks(n_l as usize) + right_cost[split]) * inv_area;
+            if best.map_or(true, |(_, _, c)| cost < c) {
+                best = Some((axis, split, cost));
+            }
+        }
+    }
+    best
+}
+
+/// Intersection cost of `n` triangles: leaves test them four at a time.
+#[inline]
+fn blocks(n: usize) -> f32 {
+    n.div_ceil(4) as f32
+}
+
+/// Moves the references that satisfy `left` to the front; returns how many there are
+/// and the (box, centroid box) of each side, gathered in the same pass.
+fn partition(
+    refs: &mut [PrimRef],
+    left: impl Fn(&PrimRef) -> bool,
+) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+    let (mut i, mut j) = (0, refs.len());
+    let (mut lb, mut lc, mut rb, mut rc) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
+    while i < j {
+        let r = refs[i];
+        if left(&r) {
+            lb = lb.union(r.aabb());
+            lc = lc.grow(r.centroid2());
+            i += 1;
+        } else {
+            rb = rb.union(r.aabb());
+            rc = rc.grow(r.centroid2());
+            j -= 1;
+            refs.swap(i, j);
+        }
+    }
+    (i, (lb, lc), (rb, rc))
+}
+
+fn build_node(
+    refs: &mut [PrimRef],
+    first: usize,
+    depth: u32,
+    (bounds, centroids): (Aabb, Aabb),
+) -> BuildNode {
+    let n = refs.len();
+    let leaf = BuildNode::Leaf {
+        bounds,
+        first,
+        count: n,
+    };
+    // A 4-wide node tests four boxes at once, so splitting four triangles or fewer
+    // gains nothing the leaf test would not give.
+    if n <= SMALL_LEAF {
+        return leaf;
+    }
+    let binner = Binner::new(centroids, bin_count(n));
+    let split = if depth >= SAH_DEPTH {
+        None
+    } else {
+        match binner.bins {
+            8 => best_split::<8>(refs, bounds, &binner),
+            16 => best_split::<16>(refs, bounds, &binner),
+            _ => best_split::<BINS>(refs, bounds, &binner),
+        }
+    };
+    if n <= MAX_LEAF && split.map_or(true, |(_, _, cost)| cost >= blocks(n)) {
+        return leaf;
+    }
+    let (mid, left_bounds, right_bounds) = match split {
+        Some((axis, bins_left, _)) => partition(refs, |r| {
+            (binner.bins(r.centroid2())[axis] as usize) < bins_left
+        }),
+        None => {
+            // Object median on the widest centroid axis: always balanced.
+            let axis = (centroids.hi - centroids.lo).max_position();
+            refs.select_nth_unstable_by(n / 2, |a, b| {
+                a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
+            });
+            let (l, r) = refs.split_at(n / 2);
+            (n / 2, bounds_of(l), bounds_of(r))
+        }
+    };
+    let (left, right) = refs.split_at_mut(mid);
+    let (a, b) = if n >= PARALLEL_SUBTREE {
+        rayon::join(
+            || build_node(left, first, depth + 1, left_bounds),
+            || build_node(right, first + mid, depth + 1, right_bounds),
+        )
+    } else {
+        (
+            build_node(left, first, depth + 1, left_bounds),
+            build_node(right, first + mid, depth + 1, right_bounds),
+        )
+    };
+    BuildNode::Inner {
+        bounds,
+        children: Box::new([a, b]),
+    }
+}
+
+/// Emits `node` (and its subtree) as 4-wide nodes, depth first; returns its reference.
+/// `leaf(first, count)` stores a leaf's references and returns the leaf's `Child`.
+fn flatten(
+    node: &BuildNode,
+    nodes: &mut Vec<Node4>,
+    leaf: &mut impl FnMut(usize, usize) -> Child,
+) -> Child {
+    let BuildNode::Inner { children, .. } = node else {
+        let BuildNode::Leaf { first, count, .. } = node else {
+            unreachable!()
+        };
+        return leaf(*first, *count);
+    };
+    let mut kids: [&BuildNode; 4] = [&children[0], &children[1], &children[0], &children[0]];
+    let mut len = 2;
+    // Pull grandchildren up while there is room: open the widest inner child first.
+    while len < 4 {
+        let widest = (0..len)
+            .filter(|&i| matches!(kids[i], BuildNode::Inner { .. }))
+            .max_by(|&i, &j| {
+                kids[i]
+                    .bounds()
+                    .half_area()
+                    .total_cmp(&kids[j].bounds().half_area())
+            });
+        let Some(i) = widest else { break };
+        let BuildNode::Inner { children, .. } = kids[i] else {
+            unreachable!()
+        };
+        kids[i] = &children[0];
+        kids[len] = &children[1];
+        len += 1;
+    }
+    let index = nodes.len();
+    nodes.push(Node4::EMPTY);
+    let mut out = Node4::EMPTY;
+    for (lane, kid) in kids[..len].iter().enumerate() {
+        let b = kid.bounds();
+        let child = flatten(kid, nodes, leaf);
+        out.set(lane, b.lo.to_array(), b.hi.to_array(), child);
+    }
+    nodes[index] = out;
+    Child::inner(index as u32)
+}
+
+/// Builds the 4-wide tree over `refs`, reordering them into leaf order; `leaf(refs)`
+/// stores each leaf's references (in depth-first order) and returns its `Child`. Node 0
+/// is the root. `refs` must not be empty.
+pub fn build(refs: &mut [PrimRef], mut leaf: impl FnMut(&[PrimRef]) -> Child) -> Vec<Node4> {
+    debug_assert!(!refs.is_empty());
+    let tree = build_node(refs, 0, 0, bounds_of(refs));
+    let refs = &*refs;
+    let leaf = &mut |first: usize, count: usize| leaf(&refs[first..first + count]);
+    let mut nodes = Vec::with_capacity(refs.len() / 4 + 1);
+    match &tree {
+        BuildNode::Leaf { bounds, .. } => {
+            // A root that is a leaf still gets a node, so traversal always starts at one.
+            let mut root = Node4::EMPTY;
+            root.set(
+                0,
+                bounds.lo.to_array(),
+                bounds.hi.to_array(),
+                flatten(&tree, &mut nodes, leaf),
+            );
+            nodes.push(root);
+        }
+        BuildNode::Inner { .. } => {
+            flatten(&tree, &mut nodes, leaf);
+        }
+    }
+    // Freeing millions of boxes is not free either; let a worker do it.
+    rayon::spawn(move || drop(tree));
+    nodes
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn partition_splits_by_predicate() {
+        let mut refs: Vec<PrimRef> = (0..100)
+            .map(|i| PrimRef::new(Vec3A::splat(i as f32), Vec3A::splat(i as f32), i))
+            .collect();
+        let (mid, (lb, lc), (rb, _)) = partition(&mut refs, |r| r.id() % 3 == 0);
+        assert_eq!(mid, 34);
+        assert!(refs[..mid].iter().all(|r| r.id() % 3 == 0));
+        assert!(refs[mid..].iter().all(|r| r.id() % 3 != 0));
+        assert_eq!((lb.lo.x, lb.hi.x, lc.hi.x), (0.0, 99.0, 198.0));
+        assert_eq!((rb.lo.x, rb.hi.x), (1.0, 98.0));
+    }
+
+    #[test]
+    fn every_reference_lands_in_exactly_one_leaf_inside_its_boxes() {
+        // 10 000 small boxes on a jittered grid, plus many identical ones (median path).
+        let mut refs: Vec<PrimRef> = (0..10_000u32)
+            .map(|i| {
+                let p = Vec3A::new(
+                    (i % 97) as f32,
+                    (i / 97 % 13) as f32 * 1.7,
+                    (i * 7 % 31) as f32,
+                );
+                PrimRef::new(p, p + 0.5, i)
+            })
+            .chain((10_000..10_500).map(|id| PrimRef::new(Vec3A::ZERO, Vec3A::ONE, id)))
+            .collect();
+        let mut order = Vec::new();
+        let nodes = build(&mut refs, |leaf| {
+            let first = order.len();
+            order.extend_from_slice(leaf);
+            Child::leaf(first, leaf.len())
+        });
+        let refs = order;
+        let mut seen = vec![0u32; refs.len()];
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let node = &nodes[i];
+            for lane in 0..4 {
+                if node.lo[0][lane] > node.hi[0][lane] {
+                    continue;
+                }
+                let child = node.child[lane];
+                if child.is_leaf() {
+                    for k in child.range() {
+                        seen[k] += 1;
+                        let r = refs[k].aabb();
+                        for a in 0..3 {
+                            assert!(node.lo[a][lane] <= r.lo[a] && r.hi[a] <= node.hi[a][lane]);
+                        }
+                    }
+                } else {
+                    stack.push(child.index());
+                }
+            }
+        }
+        assert!(seen.iter().all(|&s| s == 1));
+        let mut ids: Vec<u32> = refs.iter().map(|r| r.id()).collect();
+        ids.sort_unstable();
+        assert!(ids.iter().enumerate().all(|(i, &id)| id == i as u32));
+    }
+}

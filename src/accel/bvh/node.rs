@@ -1,0 +1,91 @@
+//! The flattened 4-wide node: the bounds of four children as struct-of-arrays, so the
+//! four slab tests are one loop over `[f32; 4]` lanes that the compiler vectorises.
+
+/// How many children an inner node has.
+pub const WIDTH: usize = 4;
+
+/// Most triangles a leaf may hold (the leaf code has 4 bits for the count).
+pub const MAX_LEAF: usize = 4;
+
+/// Most triangles a BVH can index: leaves address blocks of up to four triangles with
+/// 27 bits, and there are never more blocks than triangles.
+pub const MAX_TRIANGLES: usize = 1 << 27;
+
+const LEAF_BIT: u32 = 1 << 31;
+
+/// A reference to a child: an inner node's index, or a leaf's run of triangle blocks
+/// (bit 31 set, count - 1 in bits 27..31, first block in bits 0..27).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Child(pub u32);
+
+impl Child {
+    pub fn inner(index: u32) -> Self {
+        debug_assert!(index < LEAF_BIT);
+        Child(index)
+    }
+
+    pub fn leaf(first: usize, count: usize) -> Self {
+        debug_assert!((1..=16).contains(&count) && first < MAX_TRIANGLES);
+        Child(LEAF_BIT | ((count as u32 - 1) << 27) | first as u32)
+    }
+
+    #[inline(always)]
+    pub fn is_leaf(self) -> bool {
+        self.0 & LEAF_BIT != 0
+    }
+
+    /// The block range of a leaf.
+    #[inline(always)]
+    pub fn range(self) -> std::ops::Range<usize> {
+        let first = (self.0 & (MAX_TRIANGLES as u32 - 1)) as usize;
+        let count = ((self.0 >> 27) & 15) as usize + 1;
+        first..first + count
+    }
+
+    #[inline(always)]
+    pub fn index(self) -> usize {
+        self.0 as usize
+    }
+}
+
+/// Four children's boxes, `lo[axis][lane]` / `hi[axis][lane]`, and their references.
+/// Unused lanes have an empty box (`lo = +inf`, `hi = -inf`) that no ray can hit.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub struct Node4 {
+    pub lo: [[f32; WIDTH]; 3],
+    pub hi: [[f32; WIDTH]; 3],
+    pub child: [Child; WIDTH],
+}
+
+impl Node4 {
+    pub const EMPTY: Node4 = Node4 {
+        lo: [[f32::INFINITY; WIDTH]; 3],
+        hi: [[f32::NEG_INFINITY; WIDTH]; 3],
+        child: [Child(0); WIDTH],
+    };
+
+    pub fn set(&mut self, lane: usize, lo: [f32; 3], hi: [f32; 3], child: Child) {
+        for axis in 0..3 {
+            self.lo[axis][lane] = lo[axis];
+            self.hi[axis][lane] = hi[axis];
+        }
+        self.child[lane] = child;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_codes_round_trip() {
+        for (first, count) in [(0, 1), (5, 8), (MAX_TRIANGLES - 16, 16), (123_456, 3)] {
+            let c = Child::leaf(first, count);
+            assert!(c.is_leaf());
+            assert_eq!(c.range(), first..first + count);
+        }
+        assert!(!Child::inner(42).is_leaf());
+        assert_eq!(Child::inner(42).index(), 42);
+    }
+}

@@ -1,0 +1,140 @@
+//! `ember bench`: Embree against the native BVH (and, with the `peers` feature, the
+//! published Rust BVH crates) on the same meshes and the same rays.
+
+use std::path::{Path, PathBuf};
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use glam::Vec3;
+
+use super::parse_vec3;
+use ember::bench::{self, BenchMesh, BenchOptions};
+use ember::embree::Device;
+use ember::film;
+use ember::scene::{CameraSettings, Procedural};
+
+#[derive(Args)]
+pub struct BenchArgs {
+    /// OBJ meshes to benchmark on (materials with Ke > 0 become the shadow rays' targets).
+    meshes: Vec<PathBuf>,
+    /// Procedural meshes, KIND:COUNT with KIND `sphere` (a subdivided unit sphere) or
+    /// `soup` (random triangles in a cube) and COUNT the number of triangles, with an
+    /// optional k or m suffix; comma-separated for a scaling series, e.g.
+    /// `--procedural sphere:1k,sphere:100k,sphere:1m,soup:10m`.
+    #[arg(long, value_delimiter = ',')]
+    procedural: Vec<Procedural>,
+    /// Rays in each set (primary, diffuse, shadow).
+    #[arg(long, default_value_t = 1 << 18, value_parser = clap::value_parser!(u64).range(1..=1 << 28))]
+    rays: u64,
+    /// Thread counts to measure with, comma-separated [default: 1 and all cores].
+    #[arg(long, value_delimiter = ',', value_parser = clap::value_parser!(u32).range(1..=1024))]
+    threads: Vec<u32>,
+    /// Seconds each measurement repeats for at least (the best run is reported).
+    #[arg(long, default_value_t = 0.5, value_parser = parse_min_time)]
+    min_time: f64,
+    /// Random seed of the ray sets and procedural meshes.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Camera position for the primary rays, X,Y,Z [default: in front of the mesh (+z)].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    eye: Option<Vec3>,
+    /// Point the camera looks at, X,Y,Z [default: the centre of the mesh's bounds].
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    look_at: Option<Vec3>,
+    /// Print one JSON document on stdout (the table goes to stderr).
+    #[arg(long)]
+    json: bool,
+    /// Also write the JSON document to this file (atomically).
+    #[arg(long)]
+    json_out: Option<PathBuf>,
+}
+
+/// Seconds each measurement repeats for: 0 (one run) to an hour.
+fn parse_min_time(s: &str) -> Result<f64, String> {
+    match s.trim().parse::<f64>() {
+        Ok(v) if (0.0..=3600.0).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "{s:?} is not a number of seconds between 0 and 3600"
+        )),
+    }
+}
+
+pub fn run(args: BenchArgs) -> Result<()> {
+    if args.meshes.is_empty() && args.procedural.is_empty() {
+        bail!("nothing to benchmark: give an OBJ mesh or --procedural KIND:COUNT");
+    }
+    // Fail on an impossible output before spending minutes measuring.
+    if let Some(parent) = args.json_out.as_deref().and_then(Path::parent) {
+        if !parent.as_os_str().is_empty() && !parent.is_dir() {
+            bail!(
+                "cannot write the JSON output: {} is not a directory",
+                parent.display()
+            );
+        }
+    }
+    let all = std::thread::available_parallelism().map_or(1, |n| n.get());
+    let mut threads: Vec<usize> = if args.threads.is_empty() {
+        vec![1, all]
+    } else {
+        args.threads.iter().map(|&t| t as usize).collect()
+    };
+    threads.sort_unstable();
+    threads.dedup();
+    let mut options = BenchOptions {
+        rays: args.rays as usize,
+        threads,
+        min_seconds: args.min_time,
+        seed: args.seed,
+        camera: None,
+    };
+    // Loaded one at a time when its turn comes: the large procedural meshes take
+    // gigabytes.
+    enum Source<'a> {
+        Obj(&'a Path),
+        Procedural(Procedural),
+    }
+    let sources = (args.meshes.iter().map(|p| Source::Obj(p)))
+        .chain(args.procedural.iter().map(|&p| Source::Procedural(p)));
+
+    let mut results = Vec::new();
+    for source in sources {
+        let mesh = match source {
+            Source::Obj(path) => BenchMesh::from_obj(path)?,
+            Source::Procedural(p) => BenchMesh::procedural(p, args.seed),
+        };
+        options.camera = match (args.eye, args.look_at) {
+            (None, None) => None,
+            (eye, look_at) => {
+                let (lo, hi) = mesh.bounds();
+                let framing = CameraSettings::framing(lo, hi, 40.0);
+                Some(CameraSettings {
+                    eye: eye.unwrap_or(framing.eye),
+                    look_at: look_at.unwrap_or(framing.look_at),
+                    ..framing
+                })
+            }
+        };
+        eprintln!(
+            "benchmarking {}: {} triangles",
+            mesh.name,
+            mesh.triangles.len()
+        );
+        let measured = bench::run(&mesh, &options)
+            .with_context(|| format!("benchmark of {} failed", mesh.name))?;
+        results.extend(measured);
+    }
+
+    let table = bench::table(&results);
+    let version = Device::new("")?.info().version;
+    let json = serde_json::to_string_pretty(&bench::to_json(&results, &options, &version))?;
+    if let Some(path) = &args.json_out {
+        film::write_atomically(path, json.as_bytes())?;
+    }
+    if args.json {
+        eprint!("{table}");
+        println!("{json}");
+    } else {
+        print!("{table}");
+    }
+    Ok(())
+}

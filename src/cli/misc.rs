@@ -1,0 +1,64 @@
+//! `ember compare` and `ember info`.
+
+use std::path::PathBuf;
+
+use anyhow::{bail, Result};
+use clap::Args;
+
+use ember::embree::Device;
+use ember::film::{self, Film};
+
+#[derive(Args)]
+pub struct CompareArgs {
+    /// The image to judge.
+    image: PathBuf,
+    /// The reference it is compared with (relative MSE is relative to this one).
+    reference: PathBuf,
+}
+
+pub fn compare(args: CompareArgs) -> Result<()> {
+    let image = Film::load(&args.image)?;
+    let reference = Film::load(&args.reference)?;
+    let error = film::compare(&image, &reference)?;
+    println!(
+        "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
+        error.mse, error.rel_mse, error.psnr
+    );
+    Ok(())
+}
+
+pub fn info() -> Result<()> {
+    let device = Device::new("")?;
+    let info = device.info();
+    let isa = match info.native_packet_width {
+        16 => "AVX-512 (native 16-wide packets)",
+        8 => "AVX/AVX2 (native 8-wide packets)",
+        _ => "SSE (native 4-wide packets)",
+    };
+    println!("ember {}", env!("CARGO_PKG_VERSION"));
+    println!(
+        "embree: library {} (bindings generated from the {} headers in {})",
+        info.version,
+        info.header_version,
+        env!("EMBER_EMBREE_INCLUDE")
+    );
+    println!("embree ISA: {isa}");
+    println!(
+        "embree threads: {} tasking, {} hardware threads",
+        info.tasking_system,
+        std::thread::available_parallelism().map_or(1, |n| n.get())
+    );
+    println!(
+        "build: {} profile, target {}",
+        if cfg!(debug_assertions) {
+            "debug"
+        } else {
+            "release"
+        },
+        std::env::consts::ARCH
+    );
+    if info.version.is_empty() {
+        bail!("Embree reported no version");
+    }
+    Ok(())
+}
