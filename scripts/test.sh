@@ -9,7 +9,7 @@ cd "$(dirname "$0")/.."
 echo "== cargo fmt --check" >&2
 cargo fmt --all -- --check
 echo "== cargo clippy" >&2
-cargo clippy --release --all-targets -- -D warnings
+cargo clippy --release --all-targets --features peers -- -D warnings
 echo "== cargo test (system Embree)" >&2
 cargo test --release
 echo "== fuzzing OBJ/MTL loading for ${EMBER_CI_FUZZ_SECONDS:-60} s" >&2
