@@ -21,7 +21,7 @@ rig=../shared/embree4/setup.sh
 if [[ -f $rig ]]; then
   echo "== Embree 4 leg" >&2
   bash "$rig" "$PWD/.embree4" >/dev/null
-  EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test embree_wrapper \
+  EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test embree_wrapper --test accel_agreement \
     --test render --test robustness
 else
   echo "== Embree 4 leg skipped: $rig not found" >&2
