@@ -71,13 +71,7 @@ impl BenchMesh {
 
     /// Lower and upper corners of the box around the vertices the triangles use.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.triangles.iter().flatten().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), &i| {
-                let p = self.positions[i as usize];
-                (lo.min(p), hi.max(p))
-            },
-        )
+        crate::scene::triangle_bounds(&self.positions, &self.triangles)
     }
 }
 

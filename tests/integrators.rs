@@ -7,13 +7,12 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{build, diffuse, inward_cube};
-use ember::accel::{Accel, EmbreeAccel, Ray};
-use ember::embree::{BuildQuality, Device};
+use common::{build, diffuse, inward_cube, with_embree, Built};
+use ember::accel::{Accel, Ray};
 use ember::film::{compare_pixels, Film, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::sampling::{uniform_sphere, Rng};
-use ember::scene::{load_obj, Bsdf, Camera, CameraSettings, Material, Scene};
+use ember::scene::{load_obj, Bsdf, Camera, CameraSettings, Material};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -148,33 +147,14 @@ fn reference_camera(size: u32) -> Camera {
     .camera(size, size)
 }
 
-struct Loaded {
-    scene: Scene,
-    accel: EmbreeAccel,
-    _device: Device,
-}
-
-fn load(path: &Path) -> Loaded {
-    let (scene, _) = load_obj(path).expect("scene loads");
-    let device = Device::new("").expect("Embree device");
-    let accel = EmbreeAccel::build(
-        &device,
-        &scene.mesh.positions,
-        &scene.mesh.triangles,
-        BuildQuality::High,
-    )
-    .expect("Embree scene");
-    Loaded {
-        scene,
-        accel,
-        _device: device,
-    }
+fn load(path: &Path) -> Built {
+    with_embree(load_obj(path).expect("scene loads").0)
 }
 
 /// Renders every `stride`-th pixel of a `size²` image (each pixel exactly as a full
 /// render would: box filter, `spp` samples) and returns (index, colour) pairs.
 fn render_pixels(
-    loaded: &Loaded,
+    loaded: &Built,
     kind: IntegratorKind,
     max_depth: u32,
     size: u32,

@@ -19,6 +19,17 @@ pub struct TriangleMesh {
     pub material: Vec<u32>,
 }
 
+/// Lower and upper corners of the box around the vertices that `triangles` use.
+pub fn triangle_bounds(positions: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
+    triangles.iter().flatten().fold(
+        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+        |(lo, hi), &i| {
+            let p = positions[i as usize];
+            (lo.min(p), hi.max(p))
+        },
+    )
+}
+
 /// What the integrator needs to know about the point a ray hit.
 #[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint {
@@ -53,13 +64,7 @@ impl TriangleMesh {
 
     /// Lower and upper corners of the bounding box of all vertices that triangles use.
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.triangles.iter().flatten().fold(
-            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-            |(lo, hi), &i| {
-                let p = self.positions[i as usize];
-                (lo.min(p), hi.max(p))
-            },
-        )
+        triangle_bounds(&self.positions, &self.triangles)
     }
 
     /// The surface at a hit: position, normals, texture coordinates and material.

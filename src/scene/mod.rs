@@ -9,7 +9,7 @@ mod procedural;
 
 pub use camera::{Camera, CameraSettings};
 pub use material::{Bsdf, Material, MtlValues, Scatter, Texture};
-pub use mesh::{SurfacePoint, TriangleMesh};
+pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };

@@ -32,7 +32,11 @@ pub fn build(triangles: &[([Vec3; 3], u32)], materials: Vec<Material>) -> Built 
         triangles: tris,
         material,
     };
-    let scene = Scene::new(mesh, materials, Vec::new());
+    with_embree(Scene::new(mesh, materials, Vec::new()))
+}
+
+/// `scene` with an Embree structure built over it.
+pub fn with_embree(scene: Scene) -> Built {
     let device = Device::new("").expect("Embree device");
     let accel = EmbreeAccel::build(
         &device,

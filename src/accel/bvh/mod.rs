@@ -61,10 +61,10 @@ impl RayBoxes {
         }
     }
 
-    /// Entry distance of each lane, and whether the ray meets that lane's box in
-    /// `[tmin, tmax]`.
+    /// Entry distance of each lane, and a bit mask of the lanes whose box the ray
+    /// meets in `[tmin, tmax]` (bit `i` for lane `i`).
     #[inline(always)]
-    fn test(&self, node: &Node4, tmin: f32, tmax: f32) -> ([f32; WIDTH], [bool; WIDTH]) {
+    fn test(&self, node: &Node4, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
         let mut near = [tmin; WIDTH];
         let mut far = [tmax; WIDTH];
         for axis in 0..3 {
@@ -83,11 +83,11 @@ impl RayBoxes {
                 far[lane] = if t1 < far[lane] { t1 } else { far[lane] };
             }
         }
-        let mut hit = [false; WIDTH];
+        let mut mask = 0u32;
         for lane in 0..WIDTH {
-            hit[lane] = near[lane] <= far[lane] * FAR_SLACK;
+            mask |= u32::from(near[lane] <= far[lane] * FAR_SLACK) << lane;
         }
-        (near, hit)
+        (near, mask)
     }
 }
 
@@ -219,11 +219,7 @@ impl Accel for Bvh {
                 }
             } else {
                 let node = &self.nodes[cur.index()];
-                let (near, hit) = boxes.test(node, tmin, tmax);
-                let mut mask = 0u32;
-                for (lane, &h) in hit.iter().enumerate() {
-                    mask |= u32::from(h) << lane;
-                }
+                let (near, mut mask) = boxes.test(node, tmin, tmax);
                 if mask != 0 {
                     let first = mask.trailing_zeros() as usize;
                     if mask & (mask - 1) == 0 {
@@ -288,11 +284,7 @@ impl Accel for Bvh {
                 }
             } else {
                 let node = &self.nodes[cur.index()];
-                let (near, hit) = boxes.test(node, tmin, tmax);
-                let mut mask = 0u32;
-                for (lane, &h) in hit.iter().enumerate() {
-                    mask |= u32::from(h) << lane;
-                }
+                let (near, mask) = boxes.test(node, tmin, tmax);
                 if mask != 0 {
                     // Any hit will do, but the nearest child is the likeliest blocker:
                     // visit it next, push the others.
