@@ -324,9 +324,12 @@ fn render_tile<A: Accel>(
             // Box filter: a uniform position inside the pixel.
             let ray = camera.ray(x as f32 + rng.f32(), y as f32 + rng.f32());
             // Samples 2k and 2k+1 make opposite mixture choices (see PairedCoins).
-            let pair = Rng::for_sample(settings.seed ^ PAIR_STREAM, pixel, u64::from(sample / 2));
-            let coins = PairedCoins::new(pair, sample % 2 == 1);
-            let l = tracer.radiance(ray, Some(coins), &mut rng, &mut count);
+            let coins = (settings.integrator == IntegratorKind::Mixture).then(|| {
+                let pair =
+                    Rng::for_sample(settings.seed ^ PAIR_STREAM, pixel, u64::from(sample / 2));
+                PairedCoins::new(pair, sample % 2 == 1)
+            });
+            let l = tracer.radiance(ray, coins, &mut rng, &mut count);
             if l.is_finite() {
                 sum += l.as_dvec3();
                 kept += 1;
