@@ -2,7 +2,7 @@
 //! 32 bins on each axis (parallel over rayon's workers), then collapsed into 4-wide
 //! nodes by repeatedly opening the child with the largest surface area.
 
-use glam::{UVec3, Vec3A, Vec4};
+use glam::{BVec3A, UVec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::node::{Child, Node4, MAX_LEAF};
@@ -324,6 +324,27 @@ impl Binner {
             }
         }
     }
+
+    /// Bins every `stride`-th run of [`SAMPLE_RUN`] references of `refs`.
+    fn fill_sampled<const N: usize>(&self, refs: &[PrimRef], stride: usize, bins: &mut Bins<N>) {
+        for run in refs.chunks(SAMPLE_RUN).step_by(stride) {
+            self.fill(run, bins);
+        }
+    }
+}
+
+/// Ranges larger than this are binned from a sample: at the top of the tree thousands
+/// of references per bin locate the best plane as well as millions do, and binning
+/// every reference there is the builder's largest cost (it streams the whole array).
+const SAMPLE_FROM: usize = 16 * 1024;
+/// Most references skipped per one binned: every `stride`-th run is binned.
+const MAX_SAMPLE_STRIDE: usize = 8;
+/// Contiguous references binned together, so skipped memory is skipped in whole lines.
+const SAMPLE_RUN: usize = 64;
+
+/// Bin every `sample_stride(n)`-th run of references of a range of `n`.
+fn sample_stride(n: usize) -> usize {
+    (n / SAMPLE_FROM).clamp(1, MAX_SAMPLE_STRIDE)
 }
 
 /// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins):
@@ -335,13 +356,14 @@ fn best_split<const N: usize>(
 ) -> Option<(usize, usize, f32)> {
     debug_assert_eq!(binner.bins, N);
     let nb = N;
+    let stride = sample_stride(refs.len());
     let mut bins = Bins::<N>::empty();
     if refs.len() >= PARALLEL_SCAN {
         bins = *refs
             .par_chunks(PARALLEL_SCAN / 4)
             .map(|c| {
                 let mut bins = Box::new(Bins::empty());
-                binner.fill(c, &mut bins);
+                binner.fill_sampled(c, stride, &mut bins);
                 bins
             })
             .reduce(
@@ -352,8 +374,10 @@ fn best_split<const N: usize>(
                 },
             );
     } else {
-        binner.fill(refs, &mut bins);
+        binner.fill_sampled(refs, stride, &mut bins);
     }
+    // Every sampled reference stands for `stride` of them.
+    let binned: u32 = bins.count[0].iter().sum();
     let inv_area = 1.0 / bounds.half_area().max(f32::MIN_POSITIVE);
     let mut best: Option<(usize, usize, f32)> = None;
     for axis in 0..3 {
@@ -366,18 +390,19 @@ fn best_split<const N: usize>(
         for b in (1..nb).rev() {
             box_r = box_r.union(bins.bounds[axis][b]);
             n_r += bins.count[axis][b];
-            right_cost[b] = box_r.half_area() * blocks(n_r as usize);
+            right_cost[b] = box_r.half_area() * blocks(n_r as usize * stride);
         }
         let (mut box_l, mut n_l) = (Aabb::EMPTY, 0u32);
         #[allow(clippy::needless_range_loop)] // `split` indexes two arrays at offsets
         for split in 1..nb {
             box_l = box_l.union(bins.bounds[axis][split - 1]);
             n_l += bins.count[axis][split - 1];
-            if n_l == 0 || n_l as usize == refs.len() {
+            if n_l == 0 || n_l == binned {
                 continue;
             }
             let cost = TRAVERSAL_COST
-                + (box_l.half_area() * blocks(n_l as usize) + right_cost[split]) * inv_area;
+                + (box_l.half_area() * blocks(n_l as usize * stride) + right_cost[split])
+                    * inv_area;
             if best.map_or(true, |(_, _, c)| cost < c) {
                 best = Some((axis, split, cost));
             }
@@ -393,27 +418,38 @@ fn blocks(n: usize) -> f32 {
 }
 
 /// Moves the references that satisfy `left` to the front; returns how many there are
-/// and the (box, centroid box) of each side, gathered in the same pass.
+/// and the (box, centroid box) of each side, gathered in the same pass. Branch-free
+/// (Lomuto's scheme with a swap every step): at the top of the tree the side of each
+/// reference is a coin toss the branch predictor would lose.
 fn partition(
     refs: &mut [PrimRef],
     left: impl Fn(&PrimRef) -> bool,
 ) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
-    let (mut i, mut j) = (0, refs.len());
+    let mut k = 0;
     let (mut lb, mut lc, mut rb, mut rc) = (Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY, Aabb::EMPTY);
-    while i < j {
+    for i in 0..refs.len() {
         let r = refs[i];
-        if left(&r) {
-            lb = lb.union(r.aabb());
-            lc = lc.grow(r.centroid2());
-            i += 1;
-        } else {
-            rb = rb.union(r.aabb());
-            rc = rc.grow(r.centroid2());
-            j -= 1;
-            refs.swap(i, j);
-        }
+        let is_left = left(&r);
+        let (b, c) = (r.aabb(), r.centroid2());
+        let go_left = BVec3A::splat(is_left);
+        let go_right = BVec3A::splat(!is_left);
+        lb = select(go_left, lb.union(b), lb);
+        lc = select(go_left, lc.grow(c), lc);
+        rb = select(go_right, rb.union(b), rb);
+        rc = select(go_right, rc.grow(c), rc);
+        refs.swap(k, i);
+        k += usize::from(is_left);
     }
-    (i, (lb, lc), (rb, rc))
+    (k, (lb, lc), (rb, rc))
+}
+
+/// `a` where `mask` is set, else `b`, per lane of both corners.
+#[inline]
+fn select(mask: BVec3A, a: Aabb, b: Aabb) -> Aabb {
+    Aabb {
+        lo: Vec3A::select(mask, a.lo, b.lo),
+        hi: Vec3A::select(mask, a.hi, b.hi),
+    }
 }
 
 fn build_node(
