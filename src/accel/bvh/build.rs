@@ -608,8 +608,9 @@ mod tests {
 
     #[test]
     fn every_reference_lands_in_exactly_one_leaf_inside_its_boxes() {
-        // 10 000 small boxes on a jittered grid, plus many identical ones (median path).
-        let mut refs: Vec<PrimRef> = (0..10_000u32)
+        // 40 000 small boxes on a jittered grid (enough for sampled binning at the top),
+        // plus many identical ones (median path).
+        let mut refs: Vec<PrimRef> = (0..40_000u32)
             .map(|i| {
                 let p = Vec3A::new(
                     (i % 97) as f32,
@@ -618,7 +619,7 @@ mod tests {
                 );
                 PrimRef::new(p, p + 0.5, i)
             })
-            .chain((10_000..10_500).map(|id| PrimRef::new(Vec3A::ZERO, Vec3A::ONE, id)))
+            .chain((40_000..40_500).map(|id| PrimRef::new(Vec3A::ZERO, Vec3A::ONE, id)))
             .collect();
         let mut order = Vec::new();
         let nodes = build(&mut refs, |leaf| {
