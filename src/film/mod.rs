@@ -62,6 +62,15 @@ pub fn linear_to_srgb(c: f32) -> f32 {
     }
 }
 
+/// The inverse of [`linear_to_srgb`]: from encoded `[0, 1]` to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
 impl Film {
     pub fn new(width: u32, height: u32) -> Self {
         Film {
@@ -130,28 +139,26 @@ impl Film {
             .map_err(|e| fail(e.to_string()))?
             .decode()
             .map_err(|e| fail(e.to_string()))?;
+        Ok(Film::from_image(image))
+    }
+
+    /// A decoded image in linear RGB: floating-point images (EXR, HDR) as they are,
+    /// 8- and 16-bit ones (PNG, JPEG, …) decoded from sRGB.
+    pub fn from_image(image: image::DynamicImage) -> Film {
         let linear = matches!(
             image.color(),
             image::ColorType::Rgb32F | image::ColorType::Rgba32F
         );
         let rgb = image.to_rgb32f();
-        let decode = |c: f32| {
-            if linear {
-                c
-            } else if c <= 0.04045 {
-                c / 12.92
-            } else {
-                ((c + 0.055) / 1.055).powf(2.4)
-            }
-        };
-        Ok(Film {
+        let decode = |c: f32| if linear { c } else { srgb_to_linear(c) };
+        Film {
             width: rgb.width(),
             height: rgb.height(),
             pixels: rgb
                 .pixels()
                 .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
                 .collect(),
-        })
+        }
     }
 }
 

@@ -15,7 +15,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::sampling::{uniform_sphere, Rng};
+use crate::sampling::{luminance, uniform_sphere, Rng};
 
 /// How a material scatters light.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -73,10 +73,6 @@ pub struct MtlValues {
     pub d: Option<f32>,
     pub tr: Option<f32>,
     pub illum: Option<u8>,
-}
-
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 impl Material {

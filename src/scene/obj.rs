@@ -507,8 +507,7 @@ fn find_texture(name: &str, dirs: &[PathBuf]) -> Option<PathBuf> {
         .find(|p| p.is_file())
 }
 
-/// Decodes an image into linear RGB: 8- and 16-bit images are taken as sRGB-encoded,
-/// floating-point ones (EXR, HDR) as already linear.
+/// Decodes an image into linear RGB (see `Film::from_image`).
 fn load_texture(path: &Path) -> Result<Texture, String> {
     let image = image::ImageReader::open(path)
         .map_err(|e| e.to_string())?
@@ -523,32 +522,14 @@ fn load_texture(path: &Path) -> Result<Texture, String> {
         &format!("a {}x{} texture", image.width(), image.height()),
         texels * 24,
     )?;
-    let srgb = !matches!(
-        image.color(),
-        image::ColorType::Rgb32F | image::ColorType::Rgba32F
-    );
-    let rgb = image.to_rgb32f();
-    let (width, height) = rgb.dimensions();
-    if width == 0 || height == 0 {
+    let film = crate::film::Film::from_image(image);
+    if film.width == 0 || film.height == 0 {
         return Err("image is empty".into());
     }
-    let decode = |c: f32| {
-        if !srgb {
-            c
-        } else if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let texels = rgb
-        .pixels()
-        .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
-        .collect();
     Ok(Texture {
-        width,
-        height,
-        texels,
+        width: film.width,
+        height: film.height,
+        texels: film.pixels,
     })
 }
 
