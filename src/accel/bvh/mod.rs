@@ -205,16 +205,18 @@ impl Accel for Bvh {
         let boxes = RayBoxes::new(ray);
         let shear = RayShear::new(ray.origin, ray.dir);
         let (tmin, mut tmax) = (ray.tmin, ray.tmax);
-        let mut best: Option<(u32, f32, f32)> = None;
+        // The block and lane of the nearest hit so far, and its barycentrics.
+        let mut best: Option<(usize, usize, f32, f32)> = None;
         let mut stack = [(Child(0), 0.0f32); STACK];
         let mut sp = 0;
         let mut cur = Child::inner(0);
         loop {
             if cur.is_leaf() {
-                for block in &self.blocks[cur.range()] {
-                    if let Some((lane, t, u, v)) = shear.intersect4(block, tmin, tmax) {
+                for index in cur.range() {
+                    if let Some((lane, t, u, v)) = shear.intersect4(&self.blocks[index], tmin, tmax)
+                    {
                         tmax = t;
-                        best = Some((block.prim[lane], u, v));
+                        best = Some((index, lane, u, v));
                     }
                 }
             } else {
@@ -251,11 +253,17 @@ impl Accel for Bvh {
             // Pop the nearest pending child that could still be closer than the hit.
             loop {
                 if sp == 0 {
-                    return best.map(|(prim, u, v)| Hit {
-                        t: tmax,
-                        prim,
-                        u,
-                        v,
+                    return best.map(|(index, lane, u, v)| {
+                        let block = &self.blocks[index];
+                        let t = block
+                            .plane_distance(lane, ray.origin, ray.dir)
+                            .map_or(tmax, |t| t.clamp(tmin, ray.tmax));
+                        Hit {
+                            t,
+                            prim: block.prim[lane],
+                            u,
+                            v,
+                        }
                     });
                 }
                 sp -= 1;
