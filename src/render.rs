@@ -14,7 +14,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::film::Film;
-use crate::integrator::{IntegratorKind, PairedCoins, PathTracer, RayCount};
+use crate::integrator::{IntegratorKind, PathTracer, RayCount};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 
@@ -66,10 +66,6 @@ pub fn tiles(width: u32, height: u32) -> Vec<(u32, u32, u32, u32)> {
     }
     tiles
 }
-
-/// Salt of the random stream that pairs samples for the mixture estimator, so that it
-/// is independent of the samples' own streams.
-const PAIR_STREAM: u64 = 0x05ca_1ab1_e0dd_ba11;
 
 /// The running state of a progressive render, per pixel: the sum of the finite sample
 /// estimates (in `f64`, added in sample order), how many of them were finite, and how
@@ -297,6 +293,25 @@ pub fn render_progressive<A: Accel>(
     (progress, stats)
 }
 
+/// Camera sample `sample` of pixel `(x, y)` (index `pixel` in the image): the radiance
+/// along a ray through a uniform point of the pixel (a box filter), with the pixel's
+/// stratified random numbers (see [`Rng::for_pixel_sample`]).
+#[inline]
+pub fn pixel_sample<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    camera: &Camera,
+    seed: u64,
+    (x, y): (u32, u32),
+    pixel: u64,
+    sample: u32,
+    count: &mut RayCount,
+) -> glam::Vec3 {
+    let mut rng = Rng::for_pixel_sample(seed, pixel, u64::from(sample));
+    let (dx, dy) = rng.pair();
+    let ray = camera.ray(x as f32 + dx, y as f32 + dy);
+    tracer.radiance(ray, &mut rng, count)
+}
+
 /// Takes every pixel of the tile to `target` samples (or stops early when asked).
 /// Returns rays traced, samples dropped as NaN/infinite, and samples taken.
 fn render_tile<A: Accel>(
@@ -320,16 +335,15 @@ fn render_tile<A: Accel>(
             if stop.load(Ordering::Relaxed) != 0 {
                 break;
             }
-            let mut rng = Rng::for_sample(settings.seed, pixel, u64::from(sample));
-            // Box filter: a uniform position inside the pixel.
-            let ray = camera.ray(x as f32 + rng.f32(), y as f32 + rng.f32());
-            // Samples 2k and 2k+1 make opposite mixture choices (see PairedCoins).
-            let coins = (settings.integrator == IntegratorKind::Mixture).then(|| {
-                let pair =
-                    Rng::for_sample(settings.seed ^ PAIR_STREAM, pixel, u64::from(sample / 2));
-                PairedCoins::new(pair, sample % 2 == 1)
-            });
-            let l = tracer.radiance(ray, coins, &mut rng, &mut count);
+            let l = pixel_sample(
+                tracer,
+                camera,
+                settings.seed,
+                (x, y),
+                pixel,
+                sample,
+                &mut count,
+            );
             if l.is_finite() {
                 sum += l.as_dvec3();
                 kept += 1;

@@ -1,6 +1,6 @@
 //! The four integrators against mathematics and against an independent renderer:
 //! a furnace with a known answer, convergence towards Mitsuba's Cornell box reference
-//! at the rate 1/spp (an unbiased estimator's), and the gain of light sampling on a
+//! at least at the rate 1/spp (an unbiased estimator's), and the gain of light sampling on a
 //! scene with a small light.
 
 mod common;
@@ -11,6 +11,7 @@ use common::{build, diffuse, inward_cube, with_embree, Built};
 use ember::accel::{Accel, Ray};
 use ember::film::{compare_pixels, Film, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
+use ember::render::pixel_sample;
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{load_obj, Bsdf, Camera, CameraSettings, Material};
 use glam::{DVec3, Vec3};
@@ -31,7 +32,7 @@ fn mean_radiance<A: Accel>(tracer: &PathTracer<'_, A>, origin: Vec3, n: u64) -> 
         let mut rng = Rng::for_sample(99, 0, i);
         let dir = uniform_sphere(rng.f32(), rng.f32());
         let l = tracer
-            .radiance(Ray::new(origin, dir), None, &mut rng, &mut count)
+            .radiance(Ray::new(origin, dir), &mut rng, &mut count)
             .as_dvec3();
         sum += l;
         sum2 += l * l;
@@ -175,9 +176,7 @@ fn render_pixels(
                 let mut count = RayCount::default();
                 let mut sum = Vec3::ZERO;
                 for s in 0..spp {
-                    let mut rng = Rng::for_sample(seed, pixel, u64::from(s));
-                    let ray = camera.ray(x as f32 + rng.f32(), y as f32 + rng.f32());
-                    let l = tracer.radiance(ray, None, &mut rng, &mut count);
+                    let l = pixel_sample(tracer, &camera, seed, (x, y), pixel, s, &mut count);
                     if l.is_finite() {
                         sum += l;
                     }
@@ -192,8 +191,9 @@ fn error_against(pixels: &[(usize, Vec3)], reference: &Film) -> ImageError {
     compare_pixels(pixels.iter().map(|&(i, c)| (c, reference.pixels[i])))
 }
 
-/// relMSE against Mitsuba's reference must fall like 1/spp for every integrator: its
-/// variance does, and a bias would not. Every 4th pixel in x and y, 8 and 32 spp.
+/// relMSE against Mitsuba's reference must fall at least like 1/spp for every
+/// integrator: its variance does, and a bias would not. Every 4th pixel in x and y,
+/// 8 and 32 spp, sampled as `ember render` samples them.
 fn converges_to(reference_file: &str, max_depth: u32) {
     let (Some(obj), Some(reference)) = (
         shared("meshes/cornell-box/CornellBox-Original.obj"),
@@ -219,10 +219,14 @@ fn converges_to(reference_file: &str, max_depth: u32) {
             "{reference_file} {kind:?}: relMSE {:.3e} at 8 spp, {:.3e} at 32 spp (ratio {ratio:.2})",
             low.rel_mse, high.rel_mse
         );
-        // 4 expected; heavy-tailed noise (BSDF sampling of a small light) scatters it.
+        // Independent samples give 4 (heavy-tailed noise, BSDF sampling of a small
+        // light, scatters it down to 2.5). The pixel's first dimensions are stratified
+        // (Owen-scrambled Sobol), which falls faster: about 4^1.5 = 8 where the
+        // integrand has edges (shadows), at most 4^3 = 64 for smooth ones. Slower than
+        // 1/spp would be a bias that stops the error falling.
         assert!(
-            (2.5..6.5).contains(&ratio),
-            "{kind:?} at depth {max_depth}: relMSE ratio 8→32 spp is {ratio:.2}, expected ≈ 4"
+            (2.5..64.0).contains(&ratio),
+            "{kind:?} at depth {max_depth}: relMSE ratio 8→32 spp is {ratio:.2}, expected 4 to 8"
         );
     }
 }
@@ -297,7 +301,7 @@ fn uniform_sky_over_a_diffuse_triangle() {
             let origin = Vec3::new(0.0, from, 0.0);
             let target = Vec3::new(0.2 * rng.f32() - 0.1, 0.0, 0.2 * rng.f32() - 0.1);
             let ray = Ray::new(origin, (target - origin).normalize());
-            let l = tracer.radiance(ray, None, &mut rng, &mut count).as_dvec3();
+            let l = tracer.radiance(ray, &mut rng, &mut count).as_dvec3();
             sum += l;
             sum2 += l * l;
         }
@@ -310,7 +314,7 @@ fn uniform_sky_over_a_diffuse_triangle() {
         );
         // A ray that misses everything sees the sky itself.
         let up = Ray::new(Vec3::new(0.0, 1.0, 0.0), Vec3::Y);
-        let l = tracer.radiance(up, None, &mut Rng::seeded(1), &mut count);
+        let l = tracer.radiance(up, &mut Rng::seeded(1), &mut count);
         assert_eq!(l, sky);
     }
 }

@@ -123,18 +123,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     }
 
     /// Radiance arriving along `ray` (towards its origin); `ray.dir` must be unit.
-    ///
-    ///
-    /// `coins`, when given, makes the `mixture` estimator's component choices (light
-    /// or cosine, one per diffuse vertex) antithetic across a pair of samples; `None`
-    /// tosses independent coins. The other integrators ignore it.
-    pub fn radiance(
-        &self,
-        mut ray: Ray,
-        mut coins: Option<PairedCoins>,
-        rng: &mut Rng,
-        count: &mut RayCount,
-    ) -> Vec3 {
+    /// `rng` is told where each vertex's draws start (see [`Rng::start_vertex`]).
+    pub fn radiance(&self, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Vec3 {
         let mut radiance = Vec3::ZERO;
         let mut throughput = Vec3::ONE;
         let mut emission_weight = EmissionWeight::Full;
@@ -145,6 +135,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 radiance += throughput * self.scene.background;
                 break;
             };
+            rng.start_vertex(segment);
             let surface = self.scene.mesh.surface(&current);
             let material = self.scene.material(&surface);
             // Lights are one-sided: they emit on the side of their winding normal.
@@ -203,7 +194,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                     }
                     IntegratorKind::Mixture => {
                         let Some((dir, next, factor)) =
-                            self.mixture_step(&surface, normal, coins.as_mut(), rng, count)
+                            self.mixture_step(&surface, normal, rng, count)
                         else {
                             break;
                         };
@@ -275,13 +266,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// direction depends on what it hits. Returns the direction, its first hit and
     /// the factor `(cos/π) / mixture_pdf` the albedo is multiplied by; `None` when the
     /// draw is void (a light point that is hidden, faces away or lies below the
-    /// surface), which ends the path with nothing more to add. `coins` picks the
-    /// component when the caller pairs samples; `None` tosses an independent coin.
+    /// surface), which ends the path with nothing more to add.
     fn mixture_step(
         &self,
         surface: &SurfacePoint,
         normal: Vec3,
-        coins: Option<&mut PairedCoins>,
         rng: &mut Rng,
         count: &mut RayCount,
     ) -> Option<(Vec3, Option<Hit>, f32)> {
@@ -294,10 +283,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let next = self.trace(&Ray::new(spawn_point(surface, dir), dir), count);
             return Some((dir, next, 1.0));
         }
-        let use_light = match coins {
-            Some(coins) => coins.toss(),
-            None => rng.f32() >= 0.5,
-        };
+        let use_light = rng.f32() >= 0.5;
         let (dir, aimed_at) = if !use_light {
             (cosine.generate(rng)?, None)
         } else {
@@ -315,31 +301,6 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let light_pdf = next.map_or(0.0, |h| self.lights.pdf_hit(h.prim, dir, h.t));
         let mixture_pdf = 0.5 * cosine_pdf + 0.5 * light_pdf;
         Some((dir, next, cosine_pdf / mixture_pdf))
-    }
-}
-
-/// The component choices of the `mixture` estimator for one of a pair of samples.
-///
-/// Both samples of a pair read the same stream of fair coins, one of them inverted:
-/// at every diffuse vertex where one samples the light, the other samples the cosine
-/// density. Each sample on its own still makes independent 50/50 choices (so it is
-/// unbiased), while the pair splits evenly between the components, which removes
-/// most of the variance the coins themselves add to this estimator.
-pub struct PairedCoins {
-    stream: Rng,
-    invert: bool,
-}
-
-impl PairedCoins {
-    /// Coins from `stream` (shared by the pair); `invert` for the pair's second sample.
-    pub fn new(stream: Rng, invert: bool) -> Self {
-        PairedCoins { stream, invert }
-    }
-
-    /// `true`: sample the light density; `false`: the cosine density.
-    #[inline]
-    pub fn toss(&mut self) -> bool {
-        (self.stream.f32() < 0.5) ^ self.invert
     }
 }
 

@@ -1,10 +1,8 @@
 //! Discrete distributions sampled in constant time: Walker's alias method, built once
 //! (for example over a scene's emitters) and queried per sample without allocation.
 
-use super::Rng;
-
 /// An alias table over `n` outcomes with given non-negative weights (Vose's O(n)
-/// construction). Sampling costs one uniform index and one comparison, whatever `n`.
+/// construction). Sampling costs one multiplication and one comparison, whatever `n`.
 #[derive(Clone, Debug, Default)]
 pub struct AliasTable {
     /// Probability of keeping bin `i` rather than jumping to `alias[i]`.
@@ -71,21 +69,40 @@ impl AliasTable {
         self.pmf[i]
     }
 
-    /// An outcome drawn with probability [`pmf`](Self::pmf).
+    /// An outcome drawn with probability [`pmf`](Self::pmf) from one uniform `u` in
+    /// `[0, 1)`, and a fresh uniform in `[0, 1)` made of what the choice left of `u`.
+    ///
+    /// The integer part of `u · n` picks a column and its fraction tosses the column's
+    /// coin; the fraction, rescaled within the side of the coin it fell on, is uniform
+    /// and independent of the outcome. Passing it on to the next draw (a point on the
+    /// chosen light) keeps a stratified `u` stratified over outcome and point together.
+    /// `u` needs about `log2(n)` more bits than the fraction should keep, so pass an
+    /// `f64` with random low bits ([`Rng::refine`](super::Rng::refine)).
     #[inline]
-    pub fn sample(&self, rng: &mut Rng) -> usize {
-        let i = rng.below(self.pmf.len() as u32) as usize;
-        if rng.f32() < self.keep[i] {
-            i
+    pub fn sample(&self, u: f64) -> (usize, f32) {
+        let scaled = u * self.pmf.len() as f64;
+        let column = (scaled as usize).min(self.pmf.len() - 1);
+        let fraction = (scaled - column as f64) as f32;
+        let keep = self.keep[column];
+        let (outcome, rest) = if fraction < keep {
+            (column, fraction / keep)
         } else {
-            self.alias[i] as usize
-        }
+            (
+                self.alias[column] as usize,
+                (fraction - keep) / (1.0 - keep),
+            )
+        };
+        (outcome, rest.clamp(0.0, ONE_BELOW))
     }
 }
+
+/// The largest `f32` below 1: rescaled fractions can round up to 1.0.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::Rng;
 
     #[test]
     fn frequencies_match_weights() {
@@ -95,8 +112,13 @@ mod tests {
         let mut rng = Rng::seeded(3);
         let n = 200_000;
         let mut counts = [0u32; 5];
+        // The fractions left over stay uniform whatever the outcome (mean 1/2).
+        let mut rest_sums = [0.0f64; 5];
         for _ in 0..n {
-            counts[table.sample(&mut rng)] += 1;
+            let (outcome, rest) = table.sample(rng.f64());
+            assert!((0.0..1.0).contains(&rest));
+            counts[outcome] += 1;
+            rest_sums[outcome] += f64::from(rest);
         }
         for (i, &w) in weights.iter().enumerate() {
             let p = w / total;
@@ -108,6 +130,14 @@ mod tests {
                 counts[i],
                 n as f32 * p
             );
+            if counts[i] > 1000 {
+                let mean = rest_sums[i] / f64::from(counts[i]);
+                let sigma = (1.0 / 12.0 / f64::from(counts[i])).sqrt();
+                assert!(
+                    (mean - 0.5).abs() < 5.0 * sigma,
+                    "outcome {i}: rest mean {mean}"
+                );
+            }
         }
     }
 

@@ -219,9 +219,11 @@ impl LightSampler {
     #[inline]
     pub fn sample(&self, origin: Vec3, rng: &mut Rng) -> Option<LightSample> {
         let table = self.table.as_ref()?;
-        let i = table.sample(rng);
+        // One 2-D draw chooses the emitter and the point on it (see AliasTable::sample).
+        let (u1, u2) = rng.pair();
+        let (i, u1) = table.sample(rng.refine(u1));
         let emitter = &self.emitters[i];
-        let (b1, b2) = uniform_triangle(rng.f32(), rng.f32());
+        let (b1, b2) = uniform_triangle(u1, u2);
         let point = emitter.v0 + b1 * emitter.e1 + b2 * emitter.e2;
         let to_light = point - origin;
         let distance_squared = to_light.length_squared();

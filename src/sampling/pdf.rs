@@ -48,7 +48,8 @@ impl Pdf for CosinePdf {
 
     #[inline]
     fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
-        Some(self.frame.to_world(cosine_hemisphere(rng.f32(), rng.f32())))
+        let (u1, u2) = rng.pair();
+        Some(self.frame.to_world(cosine_hemisphere(u1, u2)))
     }
 }
 
@@ -136,6 +137,7 @@ impl Pdf for UniformSpherePdf {
 
     #[inline]
     fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
-        Some(super::uniform_sphere(rng.f32(), rng.f32()))
+        let (u1, u2) = rng.pair();
+        Some(super::uniform_sphere(u1, u2))
     }
 }

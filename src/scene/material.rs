@@ -147,7 +147,8 @@ fn fuzzy_reflection(dir: Vec3, normal: Vec3, fuzz: f32, rng: &mut Rng) -> Vec3 {
     if fuzz <= 0.0 {
         return mirrored;
     }
-    let jitter = uniform_sphere(rng.f32(), rng.f32()) * rng.f32().cbrt();
+    let (u1, u2) = rng.pair();
+    let jitter = uniform_sphere(u1, u2) * rng.f32().cbrt();
     let out = (mirrored + fuzz * jitter).normalize_or_zero();
     if out.dot(normal) > 1e-4 {
         out
