@@ -12,7 +12,7 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use crate::accel::{Accel, Bvh, BvhError, EmbreeAccel, Ray};
-use crate::embree::{BuildQuality, Device, EmbreeError, PACKET_WIDTH};
+use crate::embree::{raw_rays, BuildQuality, Device, EmbreeError, RawRay, PACKET_WIDTH};
 use crate::sampling::{cosine_hemisphere, uniform_triangle, Onb, Rng};
 use crate::scene::{load_obj, CameraSettings, Procedural, SceneError};
 
@@ -131,6 +131,9 @@ pub enum Api {
     Single,
     /// Embree's `rtcIntersect8` / `rtcOccluded8`.
     Packet8,
+    /// Embree called directly (rays in its own layout, bare `rtcIntersect1` calls), the
+    /// baseline of the wrapper's cost.
+    Direct,
 }
 
 impl Api {
@@ -138,6 +141,7 @@ impl Api {
         match self {
             Api::Single => "single",
             Api::Packet8 => "packet8",
+            Api::Direct => "direct",
         }
     }
 }
@@ -343,11 +347,11 @@ fn process_cpu_seconds() -> Option<f64> {
 }
 
 /// Traces `rays` on `pool`; `trace(chunk)` returns how many hit.
-fn throughput(
+fn throughput<R: Sync>(
     pool: &rayon::ThreadPool,
-    rays: &[Ray],
+    rays: &[R],
     min_seconds: f64,
-    trace: impl Fn(&[Ray]) -> usize + Sync,
+    trace: impl Fn(&[R]) -> usize + Sync,
 ) -> Traced {
     pool.install(|| {
         let (cpu, wall) = (process_cpu_seconds(), Instant::now());
@@ -398,6 +402,13 @@ fn count_occluded8(accel: &EmbreeAccel, rays: &[Ray]) -> usize {
             occluded[..packet.len()].iter().filter(|&&o| o).count()
         })
         .sum()
+}
+
+/// The three ray sets in Embree's own layout, for the direct-call baseline.
+struct DirectRays {
+    primary: Vec<RawRay>,
+    diffuse: Vec<RawRay>,
+    shadow: Vec<RawRay>,
 }
 
 /// Collects the measurements of one mesh.
@@ -550,49 +561,41 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
         .install(|| Bvh::build(vertices, triangles))?;
     let rays = RaySets::generate(mesh, &embree, options.rays, options.seed, options.camera)?;
 
-    rec.trace_single(&embree, &rays, &pools, min);
     let memory = embree.memory_bytes();
-    for (threads, pool) in &pools {
+    let direct = DirectRays {
+        primary: raw_rays(&rays.primary),
+        diffuse: raw_rays(&rays.diffuse),
+        shadow: raw_rays(&rays.shadow),
+    };
+    for (k, (threads, pool)) in pools.iter().enumerate() {
         let t = *threads;
-        let traced = Some(throughput(pool, &rays.primary, min, |c| {
-            count_hits8(&embree, c, true)
-        }));
-        rec.push(
-            "embree",
-            Mode::Primary,
-            Api::Packet8,
-            t,
-            None,
-            None,
-            traced,
-            memory,
-        );
-        let traced = Some(throughput(pool, &rays.diffuse, min, |c| {
-            count_hits8(&embree, c, false)
-        }));
-        rec.push(
-            "embree",
-            Mode::Diffuse,
-            Api::Packet8,
-            t,
-            None,
-            None,
-            traced,
-            memory,
-        );
-        let traced = Some(throughput(pool, &rays.shadow, min, |c| {
-            count_occluded8(&embree, c)
-        }));
-        rec.push(
-            "embree",
-            Mode::Shadow,
-            Api::Packet8,
-            t,
-            None,
-            None,
-            traced,
-            memory,
-        );
+        let push = |rec: &mut Recorder, mode, api, traced| {
+            rec.push("embree", mode, api, t, None, None, Some(traced), memory);
+        };
+        // Through the wrapper, then the same rays through bare Embree calls right
+        // after (the wrapper's cost is the gap), then through the packet API.
+        rec.trace_single(&embree, &rays, &pools[k..=k], min);
+        let scene = embree.scene();
+        for (mode, set) in [
+            (Mode::Primary, &direct.primary),
+            (Mode::Diffuse, &direct.diffuse),
+        ] {
+            let traced = throughput(pool, set, min, |c| scene.count_hits_direct(c));
+            push(&mut rec, mode, Api::Direct, traced);
+        }
+        let traced = throughput(pool, &direct.shadow, min, |c| {
+            scene.count_occluded_direct(c)
+        });
+        push(&mut rec, Mode::Shadow, Api::Direct, traced);
+        for (mode, set, coherent) in [
+            (Mode::Primary, &rays.primary, true),
+            (Mode::Diffuse, &rays.diffuse, false),
+        ] {
+            let traced = throughput(pool, set, min, |c| count_hits8(&embree, c, coherent));
+            push(&mut rec, mode, Api::Packet8, traced);
+        }
+        let traced = throughput(pool, &rays.shadow, min, |c| count_occluded8(&embree, c));
+        push(&mut rec, Mode::Shadow, Api::Packet8, traced);
         // Empty intervals: Embree returns before traversing, so what remains is the
         // cost of the call itself through the wrapper.
         let empty: Vec<Ray> = rays
@@ -604,17 +607,8 @@ pub fn run(mesh: &BenchMesh, options: &BenchOptions) -> Result<Vec<Measurement>,
                 ..*r
             })
             .collect();
-        let traced = Some(throughput(pool, &empty, min, |c| count_hits(&embree, c)));
-        rec.push(
-            "embree",
-            Mode::CallOverhead,
-            Api::Single,
-            t,
-            None,
-            None,
-            traced,
-            memory,
-        );
+        let traced = throughput(pool, &empty, min, |c| count_hits(&embree, c));
+        push(&mut rec, Mode::CallOverhead, Api::Single, traced);
     }
     drop(embree);
 
@@ -805,16 +799,21 @@ mod tests {
             }
         }
         // Same rays, same answers.
-        let hits = |backend: &str, mode: Mode| {
+        let hits = |backend: &str, mode: Mode, api: Api| {
             results
                 .iter()
-                .find(|m| m.backend == backend && m.mode == mode && m.api == Api::Single)
+                .find(|m| m.backend == backend && m.mode == mode && m.api == api)
                 .unwrap()
                 .hits
         };
         for mode in [Mode::Primary, Mode::Diffuse, Mode::Shadow] {
-            assert_eq!(hits("embree", mode), hits("bvh", mode), "{mode:?}");
+            let wrapped = hits("embree", mode, Api::Single);
+            assert_eq!(wrapped, hits("bvh", mode, Api::Single), "{mode:?}");
+            assert_eq!(wrapped, hits("embree", mode, Api::Direct), "{mode:?}");
+            assert_eq!(wrapped, hits("embree", mode, Api::Packet8), "{mode:?}");
         }
+        // The camera sees the sphere (diffuse rays leave a convex mesh and miss).
+        assert!(hits("embree", Mode::Primary, Api::Single) > 0);
         let table = table(&results);
         assert!(table.contains("sphere:") && table.contains("diffuse"));
         let json = to_json(&results, &options, "test");
