@@ -46,7 +46,7 @@ fn json_document_has_every_measurement() {
         assert!(r["threads"].as_u64().unwrap() >= 1);
         assert!(r["triangles"].as_u64().unwrap() > 0);
         assert!(r["memory_bytes"].as_u64().unwrap() > 0, "{r}");
-        assert!(["single", "packet8"].contains(&r["api"].as_str().unwrap()));
+        assert!(["single", "packet8", "direct"].contains(&r["api"].as_str().unwrap()));
         if mode == "build" {
             assert!(r["build_ms"].as_f64().unwrap() >= 0.0);
         } else {
