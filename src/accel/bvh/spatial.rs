@@ -16,8 +16,9 @@ use glam::Vec3A;
 
 use super::build::{blocks, Aabb, ObjectSplit, PrimRef, TRAVERSAL_COST};
 
-/// Bins of the node's box on the split axis for the spatial sweep.
-const BINS: usize = 16;
+/// Bins of the node's box on the split axis for the spatial sweep (16 built no better
+/// trees on Sponza than 8, and clipped large triangles twice as often).
+const BINS: usize = 8;
 /// Try a spatial split only where the object split's overlap has more than this
 /// fraction of the root's surface area. Stich et al. suggest 1e-5; higher spends the
 /// budget near the root, where it pays most, and builds faster.
