@@ -1,16 +1,20 @@
 //! The binned surface-area-heuristic (SAH) builder: a binary tree split by the best of
-//! 32 bins on each axis (parallel over rayon's workers), then collapsed into 4-wide
-//! nodes by repeatedly opening the child with the largest surface area.
+//! 32 bins on each axis (parallel over rayon's workers), or where that split's sides
+//! overlap much, a spatial split ([`spatial`]); then collapsed into 4-wide nodes by
+//! repeatedly opening the child with the largest surface area.
+
+use std::sync::atomic::AtomicIsize;
 
 use glam::{BVec3A, UVec3, Vec3A, Vec4};
 use rayon::prelude::*;
 
-use super::node::{Child, Node4, MAX_LEAF};
+use super::node::{Child, Node4, MAX_LEAF, MAX_TRIANGLES};
+use super::spatial::{self, Spatial};
 
 /// Most bins per axis for the SAH sweep (fewer for small ranges, see [`bin_count`]).
 const BINS: usize = 32;
 /// Cost of visiting a node relative to one ray/triangle test.
-const TRAVERSAL_COST: f32 = 2.0;
+pub const TRAVERSAL_COST: f32 = 2.0;
 /// Ranges this small become leaves without a SAH evaluation.
 const SMALL_LEAF: usize = 4;
 /// Subtrees at least this large are built on two workers (`rayon::join`).
@@ -35,7 +39,7 @@ impl Aabb {
     };
 
     #[inline]
-    fn union(self, o: Aabb) -> Aabb {
+    pub fn union(self, o: Aabb) -> Aabb {
         Aabb {
             lo: self.lo.min(o.lo),
             hi: self.hi.max(o.hi),
@@ -43,16 +47,29 @@ impl Aabb {
     }
 
     #[inline]
-    fn grow(self, p: Vec3A) -> Aabb {
+    pub fn grow(self, p: Vec3A) -> Aabb {
         Aabb {
             lo: self.lo.min(p),
             hi: self.hi.max(p),
         }
     }
 
+    #[inline]
+    pub fn intersect(self, o: Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.max(o.lo),
+            hi: self.hi.min(o.hi),
+        }
+    }
+
+    #[inline]
+    pub fn is_empty(self) -> bool {
+        self.lo.cmpgt(self.hi).any()
+    }
+
     /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
     #[inline]
-    fn half_area(self) -> f32 {
+    pub fn half_area(self) -> f32 {
         let d = (self.hi - self.lo).max(Vec3A::ZERO);
         d.x * d.y + d.y * d.z + d.z * d.x
     }
@@ -87,7 +104,7 @@ impl PrimRef {
     }
 
     #[inline]
-    fn aabb(&self) -> Aabb {
+    pub fn aabb(&self) -> Aabb {
         Aabb {
             lo: Vec3A::from_vec4(self.lo),
             hi: Vec3A::from_vec4(self.hi),
@@ -160,7 +177,8 @@ pub fn presplit(refs: &mut Vec<PrimRef>, corners: impl Fn(u32) -> [Vec3A; 3]) {
     }
     let mean = refs.iter().map(|r| r.aabb().half_area()).sum::<f32>() / refs.len() as f32;
     let threshold = PRESPLIT_AREA * mean;
-    let mut budget = (refs.len() as f32 * PRESPLIT_BUDGET) as usize;
+    let mut budget = ((refs.len() as f32 * PRESPLIT_BUDGET) as usize)
+        .min(MAX_TRIANGLES.saturating_sub(refs.len()));
     let large: Vec<usize> = (0..refs.len())
         .filter(|&i| refs[i].aabb().half_area() > threshold)
         .collect();
@@ -205,11 +223,11 @@ pub fn presplit(refs: &mut Vec<PrimRef>, corners: impl Fn(u32) -> [Vec3A; 3]) {
     }
 }
 
-/// The binary tree the SAH produces; leaves are ranges of the reordered references.
+/// The binary tree the SAH produces; leaves hold the indices of their triangles.
 enum BuildNode {
     Leaf {
         bounds: Aabb,
-        first: usize,
+        ids: [u32; MAX_LEAF],
         count: usize,
     },
     Inner {
@@ -347,13 +365,23 @@ fn sample_stride(n: usize) -> usize {
     (n / SAMPLE_FROM).clamp(1, MAX_SAMPLE_STRIDE)
 }
 
-/// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins):
-/// axis, number of bins on the left, SAH cost.
+/// A binned object split: axis, number of bins on the left, SAH cost, and the boxes
+/// of the two sides (from the sample when the range was sampled).
+#[derive(Clone, Copy)]
+pub struct ObjectSplit {
+    pub axis: usize,
+    pub bins_left: usize,
+    pub cost: f32,
+    pub left: Aabb,
+    pub right: Aabb,
+}
+
+/// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins).
 fn best_split<const N: usize>(
     refs: &[PrimRef],
     bounds: Aabb,
     binner: &Binner,
-) -> Option<(usize, usize, f32)> {
+) -> Option<ObjectSplit> {
     debug_assert_eq!(binner.bins, N);
     let nb = N;
     let stride = sample_stride(refs.len());
@@ -379,18 +407,20 @@ fn best_split<const N: usize>(
     // Every sampled reference stands for `stride` of them.
     let binned: u32 = bins.count[0].iter().sum();
     let inv_area = 1.0 / bounds.half_area().max(f32::MIN_POSITIVE);
-    let mut best: Option<(usize, usize, f32)> = None;
+    let mut best: Option<ObjectSplit> = None;
     for axis in 0..3 {
         if binner.scale[axis] == 0.0 {
             continue;
         }
-        // Sweep from the right, remembering area × count of every suffix.
+        // Sweep from the right, remembering area × count and the box of every suffix.
         let mut right_cost = [0.0f32; N];
+        let mut right_box = [Aabb::EMPTY; N];
         let (mut box_r, mut n_r) = (Aabb::EMPTY, 0u32);
         for b in (1..nb).rev() {
             box_r = box_r.union(bins.bounds[axis][b]);
             n_r += bins.count[axis][b];
             right_cost[b] = box_r.half_area() * blocks(n_r as usize * stride);
+            right_box[b] = box_r;
         }
         let (mut box_l, mut n_l) = (Aabb::EMPTY, 0u32);
         #[allow(clippy::needless_range_loop)] // `split` indexes two arrays at offsets
@@ -403,8 +433,14 @@ fn best_split<const N: usize>(
             let cost = TRAVERSAL_COST
                 + (box_l.half_area() * blocks(n_l as usize * stride) + right_cost[split])
                     * inv_area;
-            if best.map_or(true, |(_, _, c)| cost < c) {
-                best = Some((axis, split, cost));
+            if best.map_or(true, |b| cost < b.cost) {
+                best = Some(ObjectSplit {
+                    axis,
+                    bins_left: split,
+                    cost,
+                    left: box_l,
+                    right: right_box[split],
+                });
             }
         }
     }
@@ -413,7 +449,7 @@ fn best_split<const N: usize>(
 
 /// Intersection cost of `n` triangles: leaves test them four at a time.
 #[inline]
-fn blocks(n: usize) -> f32 {
+pub fn blocks(n: usize) -> f32 {
     n.div_ceil(4) as f32
 }
 
@@ -452,22 +488,30 @@ fn select(mask: BVec3A, a: Aabb, b: Aabb) -> Aabb {
     }
 }
 
+fn leaf_of(refs: &[PrimRef], bounds: Aabb) -> BuildNode {
+    debug_assert!(refs.len() <= MAX_LEAF);
+    let mut ids = [0u32; MAX_LEAF];
+    for (slot, r) in ids.iter_mut().zip(refs) {
+        *slot = r.id();
+    }
+    BuildNode::Leaf {
+        bounds,
+        ids,
+        count: refs.len(),
+    }
+}
+
 fn build_node(
     refs: &mut [PrimRef],
-    first: usize,
     depth: u32,
     (bounds, centroids): (Aabb, Aabb),
+    spatial: &Spatial,
 ) -> BuildNode {
     let n = refs.len();
-    let leaf = BuildNode::Leaf {
-        bounds,
-        first,
-        count: n,
-    };
     // A 4-wide node tests four boxes at once, so splitting four triangles or fewer
     // gains nothing the leaf test would not give.
     if n <= SMALL_LEAF {
-        return leaf;
+        return leaf_of(refs, bounds);
     }
     let binner = Binner::new(centroids, bin_count(n));
     let split = if depth >= SAH_DEPTH {
@@ -479,11 +523,21 @@ fn build_node(
             _ => best_split::<BINS>(refs, bounds, &binner),
         }
     };
-    if n <= MAX_LEAF && split.map_or(true, |(_, _, cost)| cost >= blocks(n)) {
-        return leaf;
+    if n <= MAX_LEAF && split.map_or(true, |s| s.cost >= blocks(n)) {
+        return leaf_of(refs, bounds);
+    }
+    // Spatial splits copy the references of the two sides; object splits reorder them
+    // in place.
+    if let Some((mut left, mut right)) =
+        split.and_then(|object| spatial.try_split(refs, bounds, &object))
+    {
+        let (lb, rb) = (bounds_of(&left), bounds_of(&right));
+        return inner(bounds, depth, (&mut left, lb), (&mut right, rb), spatial);
     }
     let (mid, left_bounds, right_bounds) = match split {
-        Some((axis, bins_left, _)) => partition(refs, |r| {
+        Some(ObjectSplit {
+            axis, bins_left, ..
+        }) => partition(refs, |r| {
             (binner.bins(r.centroid2())[axis] as usize) < bins_left
         }),
         None => {
@@ -497,15 +551,33 @@ fn build_node(
         }
     };
     let (left, right) = refs.split_at_mut(mid);
-    let (a, b) = if n >= PARALLEL_SUBTREE {
+    inner(
+        bounds,
+        depth,
+        (left, left_bounds),
+        (right, right_bounds),
+        spatial,
+    )
+}
+
+/// The inner node over two sides, each with its (box, centroid box); built on two
+/// workers when large.
+fn inner(
+    bounds: Aabb,
+    depth: u32,
+    (left, lb): (&mut [PrimRef], (Aabb, Aabb)),
+    (right, rb): (&mut [PrimRef], (Aabb, Aabb)),
+    spatial: &Spatial,
+) -> BuildNode {
+    let (a, b) = if left.len() + right.len() >= PARALLEL_SUBTREE {
         rayon::join(
-            || build_node(left, first, depth + 1, left_bounds),
-            || build_node(right, first + mid, depth + 1, right_bounds),
+            || build_node(left, depth + 1, lb, spatial),
+            || build_node(right, depth + 1, rb, spatial),
         )
     } else {
         (
-            build_node(left, first, depth + 1, left_bounds),
-            build_node(right, first + mid, depth + 1, right_bounds),
+            build_node(left, depth + 1, lb, spatial),
+            build_node(right, depth + 1, rb, spatial),
         )
     };
     BuildNode::Inner {
@@ -515,17 +587,17 @@ fn build_node(
 }
 
 /// Emits `node` (and its subtree) as 4-wide nodes, depth first; returns its reference.
-/// `leaf(first, count)` stores a leaf's references and returns the leaf's `Child`.
+/// `leaf(ids)` stores a leaf's triangles and returns the leaf's `Child`.
 fn flatten(
     node: &BuildNode,
     nodes: &mut Vec<Node4>,
-    leaf: &mut impl FnMut(usize, usize) -> Child,
+    leaf: &mut impl FnMut(&[u32]) -> Child,
 ) -> Child {
     let BuildNode::Inner { children, .. } = node else {
-        let BuildNode::Leaf { first, count, .. } = node else {
+        let BuildNode::Leaf { ids, count, .. } = node else {
             unreachable!()
         };
-        return leaf(*first, *count);
+        return leaf(&ids[..*count]);
     };
     let mut kids: [&BuildNode; 4] = [&children[0], &children[1], &children[0], &children[0]];
     let mut len = 2;
@@ -559,14 +631,25 @@ fn flatten(
     Child::inner(index as u32)
 }
 
-/// Builds the 4-wide tree over `refs`, reordering them into leaf order; `leaf(refs)`
-/// stores each leaf's references (in depth-first order) and returns its `Child`. Node 0
-/// is the root. `refs` must not be empty.
-pub fn build(refs: &mut [PrimRef], mut leaf: impl FnMut(&[PrimRef]) -> Child) -> Vec<Node4> {
+/// Builds the 4-wide tree over `refs` (reordering them); `corners(id)` gives a
+/// triangle's corners, for spatial splits; `leaf(ids)` stores each leaf's triangles (in
+/// depth-first order) and returns its `Child`. Node 0 is the root. `refs` must not be
+/// empty.
+pub fn build(
+    refs: &mut [PrimRef],
+    corners: &(dyn Fn(u32) -> [Vec3A; 3] + Sync),
+    mut leaf: impl FnMut(&[u32]) -> Child,
+) -> Vec<Node4> {
     debug_assert!(!refs.is_empty());
-    let tree = build_node(refs, 0, 0, bounds_of(refs));
-    let refs = &*refs;
-    let leaf = &mut |first: usize, count: usize| leaf(&refs[first..first + count]);
+    let bounds = bounds_of(refs);
+    let budget = (refs.len() as f32 * spatial::BUDGET) as usize;
+    let spatial = Spatial {
+        corners,
+        root_area: bounds.0.half_area(),
+        // Leaves address blocks with 27 bits: never more references than that.
+        budget: AtomicIsize::new(budget.min(MAX_TRIANGLES.saturating_sub(refs.len())) as isize),
+    };
+    let tree = build_node(refs, 0, bounds, &spatial);
     let mut nodes = Vec::with_capacity(refs.len() / 4 + 1);
     match &tree {
         BuildNode::Leaf { bounds, .. } => {
@@ -576,12 +659,12 @@ pub fn build(refs: &mut [PrimRef], mut leaf: impl FnMut(&[PrimRef]) -> Child) ->
                 0,
                 bounds.lo.to_array(),
                 bounds.hi.to_array(),
-                flatten(&tree, &mut nodes, leaf),
+                flatten(&tree, &mut nodes, &mut leaf),
             );
             nodes.push(root);
         }
         BuildNode::Inner { .. } => {
-            flatten(&tree, &mut nodes, leaf);
+            flatten(&tree, &mut nodes, &mut leaf);
         }
     }
     // Freeing millions of boxes is not free either; let a worker do it.
@@ -606,29 +689,22 @@ mod tests {
         assert_eq!((rb.lo.x, rb.hi.x), (1.0, 98.0));
     }
 
-    #[test]
-    fn every_reference_lands_in_exactly_one_leaf_inside_its_boxes() {
-        // 40 000 small boxes on a jittered grid (enough for sampled binning at the top),
-        // plus many identical ones (median path).
-        let mut refs: Vec<PrimRef> = (0..40_000u32)
-            .map(|i| {
-                let p = Vec3A::new(
-                    (i % 97) as f32,
-                    (i / 97 % 13) as f32 * 1.7,
-                    (i * 7 % 31) as f32,
-                );
-                PrimRef::new(p, p + 0.5, i)
-            })
-            .chain((40_000..40_500).map(|id| PrimRef::new(Vec3A::ZERO, Vec3A::ONE, id)))
+    /// Builds over `tris` (with their boxes as references) and returns, per triangle,
+    /// the boxes of the leaves that hold it.
+    fn leaf_boxes(tris: &[[Vec3A; 3]]) -> Vec<Vec<Aabb>> {
+        let mut refs: Vec<PrimRef> = tris
+            .iter()
+            .enumerate()
+            .map(|(id, [a, b, c])| PrimRef::new(a.min(*b).min(*c), a.max(*b).max(*c), id as u32))
             .collect();
+        let corners = |id: u32| tris[id as usize];
         let mut order = Vec::new();
-        let nodes = build(&mut refs, |leaf| {
+        let nodes = build(&mut refs, &corners, |ids| {
             let first = order.len();
-            order.extend_from_slice(leaf);
-            Child::leaf(first, leaf.len())
+            order.extend_from_slice(ids);
+            Child::leaf(first, ids.len())
         });
-        let refs = order;
-        let mut seen = vec![0u32; refs.len()];
+        let mut boxes = vec![Vec::new(); tris.len()];
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = &nodes[i];
@@ -638,21 +714,81 @@ mod tests {
                 }
                 let child = node.child[lane];
                 if child.is_leaf() {
+                    let lo = Vec3A::new(node.lo[0][lane], node.lo[1][lane], node.lo[2][lane]);
+                    let hi = Vec3A::new(node.hi[0][lane], node.hi[1][lane], node.hi[2][lane]);
                     for k in child.range() {
-                        seen[k] += 1;
-                        let r = refs[k].aabb();
-                        for a in 0..3 {
-                            assert!(node.lo[a][lane] <= r.lo[a] && r.hi[a] <= node.hi[a][lane]);
-                        }
+                        boxes[order[k] as usize].push(Aabb { lo, hi });
                     }
                 } else {
                     stack.push(child.index());
                 }
             }
         }
-        assert!(seen.iter().all(|&s| s == 1));
-        let mut ids: Vec<u32> = refs.iter().map(|r| r.id()).collect();
-        ids.sort_unstable();
-        assert!(ids.iter().enumerate().all(|(i, &id)| id == i as u32));
+        boxes
+    }
+
+    /// Every point of every triangle must be inside the box of a leaf that holds it.
+    fn assert_covered(tris: &[[Vec3A; 3]], boxes: &[Vec<Aabb>]) {
+        let mut rng = crate::sampling::Rng::seeded(9);
+        for (id, [a, b, c]) in tris.iter().enumerate() {
+            for _ in 0..16 {
+                let (u, v) = crate::sampling::uniform_triangle(rng.f32(), rng.f32());
+                let p = (1.0 - u - v) * *a + u * *b + v * *c;
+                assert!(
+                    boxes[id]
+                        .iter()
+                        .any(|bx| p.cmpge(bx.lo).all() && p.cmple(bx.hi).all()),
+                    "triangle {id}: {p} in no leaf box"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn every_triangle_lands_in_exactly_one_leaf_inside_its_box() {
+        // 40 000 small triangles on a jittered grid (enough for sampled binning at the
+        // top), plus many identical ones (median path).
+        let tri = |p: Vec3A, s: f32| [p, p + Vec3A::new(s, 0.0, s), p + Vec3A::new(0.0, s, s)];
+        let tris: Vec<[Vec3A; 3]> = (0..40_000u32)
+            .map(|i| {
+                let p = Vec3A::new(
+                    (i % 97) as f32,
+                    (i / 97 % 13) as f32 * 1.7,
+                    (i * 7 % 31) as f32,
+                );
+                tri(p, 0.5)
+            })
+            .chain((0..500).map(|_| tri(Vec3A::ZERO, 1.0)))
+            .collect();
+        let boxes = leaf_boxes(&tris);
+        assert!(boxes.iter().all(|b| b.len() == 1));
+        assert_covered(&tris, &boxes);
+    }
+
+    #[test]
+    fn spatial_splits_keep_every_triangle_covered() {
+        // Small triangles in a cube, crossed by long thin ones (planks of a floor, the
+        // columns of a hall): the long ones are split across leaves.
+        let mut rng = crate::sampling::Rng::seeded(4);
+        let mut p = || Vec3A::new(rng.f32(), rng.f32(), rng.f32()) * 10.0;
+        let mut tris: Vec<[Vec3A; 3]> = (0..3000)
+            .map(|_| {
+                let c = p();
+                [
+                    c,
+                    c + Vec3A::new(0.2, 0.0, 0.1),
+                    c + Vec3A::new(0.0, 0.2, -0.1),
+                ]
+            })
+            .collect();
+        for _ in 0..60 {
+            let (a, b) = (p(), p());
+            tris.push([a, b, b + Vec3A::new(0.05, 0.3, 0.02)]);
+        }
+        let boxes = leaf_boxes(&tris);
+        assert!(boxes.iter().all(|b| !b.is_empty()));
+        let refs: usize = boxes.iter().map(Vec::len).sum();
+        assert!(refs > tris.len(), "no spatial split happened");
+        assert_covered(&tris, &boxes);
     }
 }

@@ -4,6 +4,7 @@
 
 mod build;
 mod node;
+mod spatial;
 mod triangle;
 
 use glam::{Vec3, Vec3A};
@@ -125,16 +126,13 @@ impl Bvh {
                 blocks: Vec::new(),
             });
         }
-        build::presplit(&mut refs, |id| {
-            corners(&triangles[id as usize]).map(Vec3A::from)
-        });
+        let corners_of = |id: u32| corners(&triangles[id as usize]).map(Vec3A::from);
+        build::presplit(&mut refs, corners_of);
         let mut blocks = Vec::with_capacity(refs.len() / 3);
-        let nodes = build::build(&mut refs, |leaf| {
+        let nodes = build::build(&mut refs, &corners_of, |leaf| {
             // Pieces of one split triangle may share a leaf: test it once.
             let mut ids = [0u32; MAX_LEAF];
-            for (slot, r) in ids.iter_mut().zip(leaf) {
-                *slot = r.id();
-            }
+            ids[..leaf.len()].copy_from_slice(leaf);
             let ids = &mut ids[..leaf.len()];
             ids.sort_unstable();
             let mut unique = 0;
@@ -244,7 +242,8 @@ impl Accel for Bvh {
                         kids[j] = kid;
                         n += 1;
                     }
-                    stack[sp..sp + n - 1].copy_from_slice(&kids[..n - 1]);
+                    // A fixed-size copy (the stack has room): no call to memcpy.
+                    stack[sp..sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
                     sp += n - 1;
                     cur = kids[n - 1].0;
                     continue;
