@@ -68,7 +68,7 @@ impl Rng {
     }
 
     /// The stream of camera sample `sample` of pixel `pixel`: the camera's draws (the
-    /// position in the pixel) and those of the first vertices are stratified over the
+    /// position in the pixel) and those of the first vertex are stratified over the
     /// pixel's samples; see the module notes. Call [`start_vertex`](Self::start_vertex)
     /// at each path vertex so that samples line up dimension by dimension.
     pub fn for_pixel_sample(seed: u64, pixel: u64, sample: u64) -> Self {
