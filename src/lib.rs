@@ -4,14 +4,17 @@
 //! Data flows one way: [`scene`] loads an OBJ into an immutable [`scene::Scene`]; an
 //! [`accel::Accel`] (Embree, or the native BVH) answers ray queries against its
 //! triangles; the [`integrator`] estimates radiance per camera sample; [`render`] spreads
-//! the image over threads into a [`film::Film`], which is written as PNG, EXR or HDR.
+//! the samples over threads into a [`film::Film`] (sums and counts per pixel, which
+//! checkpoints and shards store and merge), which resolves to an [`image::Image`],
+//! written as PNG, EXR or HDR.
 
 pub mod accel;
 pub mod bench;
-pub mod checkpoint;
 pub mod embree;
 pub mod film;
+pub mod image;
 pub mod integrator;
+pub mod io;
 pub mod limits;
 pub mod render;
 pub mod sampling;

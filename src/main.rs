@@ -1,4 +1,5 @@
-//! The `ember` command line: `ember render`, `ember bench`, `ember compare`, `ember info`.
+//! The `ember` command line: `ember render`, `ember merge`, `ember bench`, `ember compare`,
+//! `ember info`.
 //!
 //! Environment variables (for tests and for running under a budget):
 //! - `EMBER_MEMORY_LIMIT=BYTES`: memory ember may assume is available (default:
@@ -12,7 +13,7 @@ mod cli;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use cli::{bench::BenchArgs, misc::CompareArgs, render::RenderArgs};
+use cli::{bench::BenchArgs, merge::MergeArgs, misc::CompareArgs, render::RenderArgs};
 
 #[derive(Parser)]
 #[command(
@@ -29,6 +30,8 @@ struct Cli {
 enum Command {
     /// Render an OBJ scene to PNG (sRGB), EXR or HDR (linear).
     Render(RenderArgs),
+    /// Merge the shard files of a split render (`render --shard I/N`) into one image.
+    Merge(MergeArgs),
     /// Time Embree against the native BVH: build time, memory, and rays per second for
     /// primary, diffuse and shadow rays, single-threaded and on several threads.
     Bench(BenchArgs),
@@ -58,6 +61,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => cli::render::run(args),
+        Command::Merge(args) => cli::merge::run(args).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => cli::bench::run(args).map(|()| ExitCode::SUCCESS),
         Command::Compare(args) => cli::misc::compare(args).map(|()| ExitCode::SUCCESS),
         Command::Info => cli::misc::info().map(|()| ExitCode::SUCCESS),

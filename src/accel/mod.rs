@@ -58,7 +58,7 @@ pub struct Hit {
 }
 
 /// Which structure answers the ray queries (`ember render --accel`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AccelKind {
     /// Intel Embree through FFI.
     Embree,

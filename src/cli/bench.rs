@@ -10,7 +10,7 @@ use glam::Vec3;
 use super::parse_vec3;
 use ember::bench::{self, BenchMesh, BenchOptions};
 use ember::embree::Device;
-use ember::film;
+use ember::io;
 use ember::scene::{CameraSettings, Procedural};
 
 #[derive(Args)]
@@ -128,7 +128,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
     let version = Device::new("")?.info().version;
     let json = serde_json::to_string_pretty(&bench::to_json(&results, &options, &version))?;
     if let Some(path) = &args.json_out {
-        film::write_atomically(path, json.as_bytes())?;
+        io::write_atomically(path, json.as_bytes())?;
     }
     if args.json {
         eprint!("{table}");

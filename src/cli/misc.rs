@@ -6,7 +6,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 
 use ember::embree::Device;
-use ember::film::{self, Film};
+use ember::image::{self, Image};
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -17,9 +17,9 @@ pub struct CompareArgs {
 }
 
 pub fn compare(args: CompareArgs) -> Result<()> {
-    let image = Film::load(&args.image)?;
-    let reference = Film::load(&args.reference)?;
-    let error = film::compare(&image, &reference)?;
+    let image = Image::load(&args.image)?;
+    let reference = Image::load(&args.reference)?;
+    let error = image::compare(&image, &reference)?;
     println!(
         "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
         error.mse, error.rel_mse, error.psnr

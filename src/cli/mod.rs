@@ -1,11 +1,72 @@
-//! The subcommands of the `ember` binary, one module each, and the flag parsers they
-//! share.
+//! The subcommands of the `ember` binary, one module each, and the flag parsers and
+//! value enums they share. Flags are mapped to the library's types here, once: clap
+//! stays out of the library.
 
 pub mod bench;
+pub mod merge;
 pub mod misc;
 pub mod render;
 
+use clap::ValueEnum;
 use glam::Vec3;
+
+use ember::accel::AccelKind;
+use ember::integrator::IntegratorKind;
+
+/// `--accel`: which structure answers the ray queries.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum AccelArg {
+    /// Intel Embree through FFI.
+    Embree,
+    /// ember's native Rust BVH.
+    Bvh,
+}
+
+impl From<AccelArg> for AccelKind {
+    fn from(arg: AccelArg) -> Self {
+        match arg {
+            AccelArg::Embree => AccelKind::Embree,
+            AccelArg::Bvh => AccelKind::Bvh,
+        }
+    }
+}
+
+/// `--integrator`: the light-transport estimator.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum IntegratorArg {
+    /// Path tracing that samples only the material (cosine-weighted for diffuse).
+    Bsdf,
+    /// Next-event estimation: direct light from light samples only, no MIS.
+    Light,
+    /// One sample per bounce from the 50/50 mixture of cosine and light densities.
+    Mixture,
+    /// Next-event estimation and material sampling combined by multiple importance
+    /// sampling (power heuristic), with Russian roulette.
+    Mis,
+}
+
+impl From<IntegratorArg> for IntegratorKind {
+    fn from(arg: IntegratorArg) -> Self {
+        match arg {
+            IntegratorArg::Bsdf => IntegratorKind::Bsdf,
+            IntegratorArg::Light => IntegratorKind::Light,
+            IntegratorArg::Mixture => IntegratorKind::Mixture,
+            IntegratorArg::Mis => IntegratorKind::Mis,
+        }
+    }
+}
+
+/// `I/N`: shard I (from 0) of N.
+pub fn parse_shard(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected I/N with 0 <= I < N <= 1000000, got {s:?}");
+    let (i, n) = s.trim().split_once('/').ok_or_else(bad)?;
+    let (i, n): (u32, u32) = (i.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
+    if i < n && n <= 1_000_000 {
+        Ok((i, n))
+    } else {
+        Err(bad())
+    }
+}
 
 /// A positive number of seconds (checkpoint intervals).
 pub fn parse_seconds(s: &str) -> Result<f64, String> {

@@ -1,6 +1,8 @@
-//! `ember render`: check every input, load the scene, build the chosen accelerator,
-//! render progressively with checkpoints and signal handling, write the image.
+//! `ember render`: map the flags to one plan, check every input, load the scene, build
+//! the chosen accelerator, render progressively with checkpoints and signal handling,
+//! and write the image, or with `--shard` the shard file.
 
+use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
@@ -13,13 +15,13 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-use super::{parse_fov, parse_seconds, parse_vec3};
+use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
-use ember::checkpoint;
 use ember::embree::{BuildQuality, Device};
-use ember::film;
-use ember::integrator::IntegratorKind;
-use ember::render::{self, Checkpointing, Progress, RenderControl, RenderSettings, RenderStats};
+use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::Film;
+use ember::image;
+use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, Camera, CameraSettings, LoadReport, Scene};
 
 #[derive(Args)]
@@ -30,6 +32,11 @@ pub struct RenderArgs {
     /// [default: the scene's name with .png, in the current directory]
     #[arg(short, long)]
     output: Option<PathBuf>,
+    /// Render only shard I of N: sample indices floor(I*spp/N) .. floor((I+1)*spp/N) of
+    /// every pixel, written to the output (whatever its extension) as a shard file for
+    /// `ember merge`. The shard file is its own checkpoint: `--resume` continues it.
+    #[arg(long, value_name = "I/N", value_parser = parse_shard, requires = "output", conflicts_with = "checkpoint")]
+    shard: Option<(u32, u32)>,
     /// Image width in pixels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     width: u32,
@@ -66,8 +73,8 @@ pub struct RenderArgs {
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
     background: Option<Vec3>,
     /// Light-transport estimator.
-    #[arg(long, value_enum, default_value_t = IntegratorKind::default())]
-    integrator: IntegratorKind,
+    #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
+    integrator: IntegratorArg,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
@@ -76,13 +83,14 @@ pub struct RenderArgs {
     #[arg(long, value_name = "FILE")]
     checkpoint: Option<PathBuf>,
     /// Continue from the checkpoint file to --spp samples per pixel. The scene, camera,
-    /// size, seed, depth and integrator must be the ones the checkpoint was made with.
+    /// size, seed, depth, integrator and accelerator must be the ones the checkpoint was
+    /// made with.
     #[arg(long)]
     resume: bool,
     /// Which structure answers the ray queries; the same seed gives the same image with
     /// either (up to floating-point ties).
-    #[arg(long, value_enum, default_value_t = AccelKind::Embree)]
-    accel: AccelKind,
+    #[arg(long, value_enum, default_value_t = AccelArg::Embree)]
+    accel: AccelArg,
 }
 
 fn default_output(scene: &Path) -> PathBuf {
@@ -128,153 +136,269 @@ pub fn embree_config(threads: Option<u32>) -> String {
     parts.join(",")
 }
 
-pub fn run(args: RenderArgs) -> Result<ExitCode> {
-    let output = args
-        .output
-        .clone()
-        .unwrap_or_else(|| default_output(&args.scene));
-    // Fail on an unwritable or unknown output before spending time on the render.
-    film::check_writable(&output)?;
-    env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
-    let embree_limit = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
-    let checkpoint_path = args
-        .checkpoint
-        .clone()
-        .unwrap_or_else(|| default_checkpoint(&output));
-    if args.resume && !checkpoint_path.is_file() {
-        bail!(
-            "cannot resume: there is no checkpoint {}",
-            checkpoint_path.display()
-        );
-    }
-    // Refuse images that cannot fit before loading anything. (width × height × spp fits
-    // in u64 for every value the flags accept: at most 2^28 × 10^6.)
-    let pixels = u64::from(args.width) * u64::from(args.height);
-    pixels
-        .checked_mul(u64::from(args.spp))
-        .context("width × height × spp overflows")?;
-    ember::limits::check_fits(
-        &format!("a {}x{} image", args.width, args.height),
-        render::render_memory_bytes(args.width, args.height),
-    )
-    .map_err(anyhow::Error::msg)?;
 
-    let (mut scene, report) = load_obj(&args.scene)?;
-    let unlit = scene.emitters.is_empty() && args.background.is_none();
-    scene.background = match args.background {
-        Some(b) if b.min_element() < 0.0 => bail!("--background must not be negative"),
+/// The sample indices of shard `i` of `n` of a render of `spp` samples per pixel.
+pub fn shard_samples(spp: u32, (i, n): (u32, u32)) -> Range<u32> {
+    let at = |k: u32| (u64::from(k) * u64::from(spp) / u64::from(n)) as u32;
+    at(i)..at(i + 1)
+}
+
+/// What the camera flags ask for; the defaults depend on the scene's bounds.
+struct CameraRequest {
+    eye: Option<Vec3>,
+    look_at: Option<Vec3>,
+    up: Vec3,
+    fov: f32,
+}
+
+/// Everything `ember render` was asked to do, mapped from the flags once.
+struct RenderPlan {
+    scene: PathBuf,
+    /// The image, or with `--shard` the shard file.
+    output: PathBuf,
+    /// Where checkpoints go (the shard file itself for a shard).
+    checkpoint: PathBuf,
+    checkpoint_every: Option<Duration>,
+    resume: bool,
+    threads: Option<u32>,
+    accel: AccelKind,
+    settings: RenderSettings,
+    camera: CameraRequest,
+    background: Option<Vec3>,
+    shard: Option<(u32, u32)>,
+    /// The sample indices this process renders: `0..spp`, or the shard's.
+    samples: Range<u32>,
+}
+
+impl RenderPlan {
+    fn from_args(args: RenderArgs) -> RenderPlan {
+        let output = args
+            .output
+            .unwrap_or_else(|| default_output(&args.scene));
+        let checkpoint = match (args.shard, args.checkpoint) {
+            (Some(_), _) => output.clone(),
+            (None, Some(path)) => path,
+            (None, None) => default_checkpoint(&output),
+        };
+        let samples = args
+            .shard
+            .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
+        RenderPlan {
+            scene: args.scene,
+            output,
+            checkpoint,
+            checkpoint_every: args.checkpoint_every.map(Duration::from_secs_f64),
+            resume: args.resume,
+            threads: args.threads,
+            accel: args.accel.into(),
+            settings: RenderSettings {
+                width: args.width,
+                height: args.height,
+                spp: args.spp,
+                max_depth: args.max_depth,
+                seed: args.seed,
+                integrator: args.integrator.into(),
+            },
+            camera: CameraRequest {
+                eye: args.eye,
+                look_at: args.look_at,
+                up: args.up,
+                fov: args.fov,
+            },
+            background: args.background,
+            shard: args.shard,
+            samples,
+        }
+    }
+
+    fn pixels(&self) -> u64 {
+        u64::from(self.settings.width) * u64::from(self.settings.height)
+    }
+
+    /// Refuses what can be refused before loading anything: an unwritable or unknown
+    /// output, bad environment, a missing checkpoint, an image too large for memory.
+    fn check(&self) -> Result<()> {
+        if self.shard.is_some() {
+            ember::io::check_writable(&self.output)?;
+        } else {
+            image::check_output(&self.output)?;
+        }
+        env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
+        env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
+        if self.background.is_some_and(|b| b.min_element() < 0.0) {
+            bail!("--background must not be negative");
+        }
+        if self.resume && !self.checkpoint.is_file() {
+            bail!(
+                "cannot resume: there is no checkpoint {}",
+                self.checkpoint.display()
+            );
+        }
+        // width × height × spp fits in u64 for every value the flags accept (at most
+        // 2^28 × 10^6); checked all the same.
+        (self.pixels())
+            .checked_mul(u64::from(self.settings.spp))
+            .context("width × height × spp overflows")?;
+        let (w, h) = (self.settings.width, self.settings.height);
+        ember::limits::check_fits(
+            &format!("a {w}x{h} image"),
+            render::render_memory_bytes(w, h),
+        )
+        .map_err(anyhow::Error::msg)
+    }
+
+    /// The header of this render's checkpoints or shard file.
+    fn header(&self, identity: Identity) -> Header {
+        Header {
+            identity,
+            width: self.settings.width,
+            height: self.settings.height,
+            spp: self.settings.spp,
+            samples: self.samples.clone(),
+            shard: self.shard,
+            min_done: 0,
+        }
+    }
+}
+
+/// The scene with its background set, and the camera that frames it.
+struct LoadedScene {
+    scene: Scene,
+    report: LoadReport,
+    unlit: bool,
+    camera_settings: CameraSettings,
+    camera: Camera,
+}
+
+fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
+    let (mut scene, report) = load_obj(&plan.scene)?;
+    let unlit = scene.emitters.is_empty() && plan.background.is_none();
+    scene.background = match plan.background {
         Some(b) => b,
         None if unlit => Vec3::ONE,
         None => Vec3::ZERO,
     };
     let (lo, hi) = scene.bounds();
-    let framing = CameraSettings::framing(lo, hi, args.fov);
+    let request = &plan.camera;
+    let framing = CameraSettings::framing(lo, hi, request.fov);
     let camera_settings = CameraSettings {
-        eye: args.eye.unwrap_or(framing.eye),
-        look_at: args.look_at.unwrap_or(framing.look_at),
-        up: args.up,
-        vfov_degrees: args.fov,
+        eye: request.eye.unwrap_or(framing.eye),
+        look_at: request.look_at.unwrap_or(framing.look_at),
+        up: request.up,
+        vfov_degrees: request.fov,
     };
     camera_settings
         .validate()
         .map_err(anyhow::Error::msg)
         .context("invalid camera")?;
-    let camera = camera_settings.camera(args.width, args.height);
-    let settings = RenderSettings {
-        width: args.width,
-        height: args.height,
-        spp: args.spp,
-        max_depth: args.max_depth,
-        seed: args.seed,
-        integrator: args.integrator,
-    };
-
-    let mut pool = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = args.threads {
-        pool = pool.num_threads(n as usize);
-    }
-    let pool = pool.build().context("cannot start worker threads")?;
-    let job = RenderJob {
-        args: &args,
-        scene: &scene,
-        report: &report,
-        unlit,
-        camera_settings,
-        camera,
-        settings,
-        output,
-        checkpoint_path,
-        pixels,
-    };
-    // One generic render per backend: the match picks the type, no dynamic dispatch.
-    match args.accel {
-        AccelKind::Embree => {
-            let device = Device::new(&embree_config(args.threads))?;
-            if let Some(limit) = embree_limit {
-                device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
-            }
-            let accel = EmbreeAccel::build(
-                &device,
-                &scene.mesh.positions,
-                &scene.mesh.triangles,
-                BuildQuality::High,
-            )
-            .context("cannot build the Embree scene")?;
-            finish_render(&job, &pool, &accel)
-        }
-        AccelKind::Bvh => {
-            let accel = pool
-                .install(|| Bvh::build(&scene.mesh.positions, &scene.mesh.triangles))
-                .context("cannot build the native BVH")?;
-            finish_render(&job, &pool, &accel)
-        }
-    }
-}
-
-/// Everything a render needs once its inputs are checked, whatever the backend.
-struct RenderJob<'a> {
-    args: &'a RenderArgs,
-    scene: &'a Scene,
-    report: &'a LoadReport,
-    unlit: bool,
-    camera_settings: CameraSettings,
-    camera: Camera,
-    settings: RenderSettings,
-    output: PathBuf,
-    checkpoint_path: PathBuf,
-    pixels: u64,
-}
-
-/// Renders with checkpoints and signal handling, then writes the image (or, when
-/// interrupted, the partial image and a checkpoint).
-fn finish_render<A: Accel>(
-    job: &RenderJob<'_>,
-    pool: &rayon::ThreadPool,
-    accel: &A,
-) -> Result<ExitCode> {
-    let RenderJob {
-        args,
+    let camera = camera_settings.camera(plan.settings.width, plan.settings.height);
+    Ok(LoadedScene {
         scene,
         report,
         unlit,
-        ref camera_settings,
-        ref camera,
-        ref settings,
-        ref output,
-        ref checkpoint_path,
-        pixels,
-    } = *job;
-    let identity = checkpoint::identity(scene, camera_settings, settings);
-    let progress = if args.resume {
-        checkpoint::load(checkpoint_path, &identity, settings.spp)?
-    } else {
-        Progress::new(settings.width, settings.height)
-    };
-    let resumed_from = progress.min_done();
+        camera_settings,
+        camera,
+    })
+}
 
-    // From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a
-    // second one exits at once. (Before, the default action ends the process: there
-    // is nothing to save yet.)
+pub fn run(args: RenderArgs) -> Result<ExitCode> {
+    let plan = RenderPlan::from_args(args);
+    plan.check()?;
+    let loaded = load_scene(&plan)?;
+    let mut pool = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = plan.threads {
+        pool = pool.num_threads(n as usize);
+    }
+    let pool = pool.build().context("cannot start worker threads")?;
+    let positions = &loaded.scene.mesh.positions;
+    let triangles = &loaded.scene.mesh.triangles;
+    // One generic render per backend: the match picks the type, no dynamic dispatch.
+    match plan.accel {
+        AccelKind::Embree => {
+            let device = Device::new(&embree_config(plan.threads))?;
+            if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
+                device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
+            }
+            let accel = EmbreeAccel::build(&device, positions, triangles, BuildQuality::High)
+                .context("cannot build the Embree scene")?;
+            finish_render(&plan, &loaded, &pool, &accel)
+        }
+        AccelKind::Bvh => {
+            let accel = pool
+                .install(|| Bvh::build(positions, triangles))
+                .context("cannot build the native BVH")?;
+            finish_render(&plan, &loaded, &pool, &accel)
+        }
+    }
+}
+
+/// Renders with checkpoints and signal handling, then writes the image or shard (or,
+/// when interrupted, the partial image and a checkpoint).
+fn finish_render<A: Accel>(
+    plan: &RenderPlan,
+    loaded: &LoadedScene,
+    pool: &rayon::ThreadPool,
+    accel: &A,
+) -> Result<ExitCode> {
+    let identity = render::identity(
+        &loaded.scene,
+        &loaded.camera_settings,
+        &plan.settings,
+        plan.accel,
+    );
+    let film = if plan.resume {
+        checkpoint::load(&plan.checkpoint, &identity, plan.samples.clone())?
+    } else {
+        let s = &plan.settings;
+        Film::new(s.width, s.height, plan.samples.clone())
+    };
+    let header = plan.header(identity);
+    let stop = stop_on_signals()?;
+    let save_checkpoint = |film: &Film| -> Result<()> {
+        checkpoint::save(&plan.checkpoint, &header, film).context("cannot write the checkpoint")
+    };
+    let periodic = |film: &Film| {
+        if let Err(e) = save_checkpoint(film) {
+            eprintln!("warning: {e:#}");
+        }
+    };
+    // Only now that every input has been checked: a failing run prints one line.
+    report_loading(plan, loaded);
+    report_start(plan, &film);
+    let checkpointing = plan.checkpoint_every.map(|every| Checkpointing {
+        every,
+        write: &periodic,
+    });
+    let (film, stats) = pool.install(|| {
+        render_with_progress(loaded, accel, &plan.settings, film, &stop, checkpointing)
+    });
+
+    let signal = stop.load(Ordering::SeqCst);
+    if signal != 0 && !film.is_complete() {
+        if plan.shard.is_none() {
+            film.resolve().save(&partial_output(&plan.output))?;
+        }
+        save_checkpoint(&film)?;
+        report_interrupted(plan, &film, signal);
+        return Ok(ExitCode::from((128 + signal).min(255) as u8));
+    }
+    if plan.shard.is_some() {
+        save_checkpoint(&film)?;
+    } else {
+        film.resolve().save(&plan.output)?;
+        if plan.checkpoint_every.is_some() || plan.resume {
+            // Keep the final state: a later --resume with a higher --spp refines it.
+            save_checkpoint(&film)?;
+        }
+    }
+    report_finished(plan, accel.name(), &stats);
+    Ok(ExitCode::SUCCESS)
+}
+
+/// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second
+/// one exits at once. (Before, the default action ends the process: there is nothing
+/// to save yet.) The returned flag holds the signal's number once one came.
+fn stop_on_signals() -> Result<Arc<AtomicUsize>> {
     let stop = Arc::new(AtomicUsize::new(0));
     let stopping = Arc::new(AtomicBool::new(false));
     for signal in [SIGINT, SIGTERM] {
@@ -285,124 +409,114 @@ fn finish_render<A: Accel>(
             .and_then(|_| signal_hook::flag::register_usize(signal, stop.clone(), signal as usize))
             .context("cannot install the signal handlers")?;
     }
-    let save_checkpoint = |progress: &Progress| -> Result<()> {
-        checkpoint::save(checkpoint_path, &identity, progress)
-            .context("cannot write the checkpoint")
-    };
-    let periodic = |progress: &Progress| {
-        if let Err(e) = save_checkpoint(progress) {
-            eprintln!("warning: {e:#}");
-        }
-    };
-    // Only now that every input has been checked: a failing run prints one line.
+    Ok(stop)
+}
+
+fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
+    let report = &loaded.report;
     for warning in &report.warnings {
-        eprintln!("warning: {}: {warning}", args.scene.display());
+        eprintln!("warning: {}: {warning}", plan.scene.display());
     }
-    if unlit {
+    if loaded.unlit {
         eprintln!(
             "note: the scene has no emissive material: it is lit by a white sky (see --background)"
         );
     }
+    let dropped = match report.degenerate_dropped {
+        0 => String::new(),
+        n => format!(", {n} degenerate triangles dropped"),
+    };
     eprintln!(
-        "loaded {}: {} triangles, {} materials, {} emissive triangles{}",
-        args.scene.display(),
+        "loaded {}: {} triangles, {} materials, {} emissive triangles{dropped}",
+        plan.scene.display(),
         report.triangles,
         report.materials,
         report.emitters,
-        if report.degenerate_dropped > 0 {
-            format!(
-                ", {} degenerate triangles dropped",
-                report.degenerate_dropped
-            )
-        } else {
-            String::new()
-        }
     );
+}
 
+/// `shard 2/8 (samples 4..6 of 16)`, or nothing for a whole render.
+fn shard_note(plan: &RenderPlan) -> String {
+    match plan.shard {
+        Some((i, n)) => format!(
+            ", shard {i}/{n} (samples {}..{})",
+            plan.samples.start, plan.samples.end
+        ),
+        None => String::new(),
+    }
+}
+
+fn report_start(plan: &RenderPlan, film: &Film) {
+    let s = &plan.settings;
+    let resumed = if plan.resume {
+        format!(", resuming from {} spp", film.samples.start + film.min_done())
+    } else {
+        String::new()
+    };
     eprintln!(
-        "rendering {}x{} at {} spp{}",
-        settings.width,
-        settings.height,
-        settings.spp,
-        if args.resume {
-            format!(", resuming from {resumed_from} spp")
-        } else {
-            String::new()
-        }
+        "rendering {}x{} at {} spp{}{resumed}",
+        s.width,
+        s.height,
+        s.spp,
+        shard_note(plan)
     );
-    let control_checkpoint = args.checkpoint_every.map(|s| Checkpointing {
-        every: Duration::from_secs_f64(s),
-        write: &periodic,
-    });
-    let (progress, stats) = pool.install(|| {
-        render_with_progress(
-            scene,
-            accel,
-            camera,
-            settings,
-            progress,
-            &stop,
-            control_checkpoint,
-        )
-    });
+}
 
-    let signal = stop.load(Ordering::SeqCst);
-    if signal != 0 && progress.min_done() < settings.spp {
-        let partial = partial_output(output);
-        progress.film().save(&partial)?;
-        save_checkpoint(&progress)?;
-        eprintln!(
-            "interrupted by {} after {} of {} samples per pixel (at least {} in every pixel): \
-             wrote the partial image {} and the checkpoint {} (continue with --resume)",
-            if signal == SIGTERM as usize {
-                "SIGTERM"
-            } else {
-                "SIGINT"
-            },
-            progress.total_done() / pixels.max(1),
-            settings.spp,
-            progress.min_done(),
-            partial.display(),
-            checkpoint_path.display()
-        );
-        return Ok(ExitCode::from((128 + signal).min(255) as u8));
-    }
-    progress.film().save(output)?;
-    if args.checkpoint_every.is_some() || args.resume {
-        // Keep the final state: a later --resume with a higher --spp refines it.
-        save_checkpoint(&progress)?;
-    }
+fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
+    let name = if signal == SIGTERM as usize {
+        "SIGTERM"
+    } else {
+        "SIGINT"
+    };
+    let image = match plan.shard {
+        None => format!(
+            "the partial image {} and ",
+            partial_output(&plan.output).display()
+        ),
+        Some(_) => String::new(),
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp, {} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{}",
-        output.display(),
-        args.width,
-        args.height,
-        args.spp,
-        accel.name(),
+        "interrupted by {name} after {} of {} samples per pixel (at least {} in every pixel): \
+         wrote {image}the checkpoint {} (continue with --resume)",
+        film.total_done() / plan.pixels().max(1),
+        film.samples.len(),
+        film.min_done(),
+        plan.checkpoint.display()
+    );
+}
+
+fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats) {
+    let s = &plan.settings;
+    let dropped = match stats.dropped_samples {
+        0 => String::new(),
+        n => format!(", {n} NaN/infinite samples dropped"),
+    };
+    eprintln!(
+        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}",
+        plan.output.display(),
+        s.width,
+        s.height,
+        s.spp,
+        shard_note(plan),
         stats.seconds,
         stats.samples_per_second(),
         stats.mrays_per_second(),
-        if stats.dropped_samples > 0 {
-            format!(", {} NaN/infinite samples dropped", stats.dropped_samples)
-        } else {
-            String::new()
-        }
     );
-    Ok(ExitCode::SUCCESS)
 }
 
 fn render_with_progress<A: Accel>(
-    scene: &Scene,
+    loaded: &LoadedScene,
     accel: &A,
-    camera: &ember::scene::Camera,
     settings: &RenderSettings,
-    progress: Progress,
+    film: Film,
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
-) -> (Progress, RenderStats) {
-    let total = u64::from(settings.width) * u64::from(settings.height) * u64::from(settings.spp);
+) -> (Film, RenderStats) {
+    let total = u64::from(settings.width)
+        * u64::from(settings.height)
+        * film.samples.len() as u64;
     let bar = ProgressBar::new(total);
-    bar.set_position(progress.total_done());
+    bar.set_position(film.total_done());
     bar.set_style(
         ProgressStyle::with_template(
             "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
@@ -415,7 +529,8 @@ fn render_with_progress<A: Accel>(
         first_pass_spp: 1,
         checkpoint,
     };
-    let result = render::render_progressive(scene, accel, camera, settings, progress, &control);
+    let (scene, camera) = (&loaded.scene, &loaded.camera);
+    let result = render::render_progressive(scene, accel, camera, settings, film, &control);
     bar.finish_and_clear();
     result
 }

@@ -1,225 +1,161 @@
-//! The image being rendered (linear `f32` RGB) and writing it out: PNG as 8-bit sRGB,
-//! EXR and HDR as linear radiance. Files appear whole or not at all.
+//! The film: where a render's samples are added. Per pixel it holds the sum of the
+//! finite sample estimates (in `f64`, added in sample order), how many of them were
+//! finite, and how many samples were taken, for one range of sample indices that is the
+//! same for every pixel (`0..spp` for a whole render, a shard's share otherwise).
+//!
+//! Sample `i` of a pixel always uses the random stream `(seed, pixel, i)` and is added
+//! after samples `first..i`, so however a render is split into passes, interrupted and
+//! resumed, the sums are bit for bit the same. Films of adjacent sample ranges merge
+//! (shards); a film resolves to an [`Image`]; [`checkpoint`] stores one in a file.
 
-mod compare;
+pub mod checkpoint;
+pub mod merge;
 
-pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+use std::ops::Range;
 
-use std::io::Write;
-use std::path::{Path, PathBuf};
+use glam::DVec3;
 
-use glam::Vec3;
-use image::{ImageFormat, Rgb32FImage, RgbImage};
+use crate::image::Image;
 
-/// Linear RGB radiance per pixel, row 0 at the top.
+/// Per-pixel sample sums and counts over the sample indices `samples`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
-    pub pixels: Vec<Vec3>,
+    /// The sample indices this film accumulates; pixel `i` holds samples
+    /// `samples.start .. samples.start + done[i]`.
+    pub samples: Range<u32>,
+    pub sums: Vec<DVec3>,
+    pub kept: Vec<u32>,
+    pub done: Vec<u32>,
 }
 
-/// An output file format, chosen by the file's extension.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum OutputFormat {
-    Png,
-    Exr,
-    Hdr,
-}
-
-#[derive(Debug, thiserror::Error)]
-pub enum FilmError {
-    #[error("unsupported output format {0:?}: use .png, .exr or .hdr")]
-    UnknownFormat(PathBuf),
-    #[error("cannot write {path}: {reason}")]
-    Write { path: PathBuf, reason: String },
-    #[error("cannot read image {path}: {reason}")]
-    Read { path: PathBuf, reason: String },
-}
-
-impl OutputFormat {
-    pub fn from_path(path: &Path) -> Result<Self, FilmError> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
-        match ext.as_deref() {
-            Some("png") => Ok(OutputFormat::Png),
-            Some("exr") => Ok(OutputFormat::Exr),
-            Some("hdr") => Ok(OutputFormat::Hdr),
-            _ => Err(FilmError::UnknownFormat(path.to_owned())),
-        }
-    }
-}
-
-/// The sRGB transfer curve, from linear `[0, 1]` to encoded `[0, 1]`.
-pub fn linear_to_srgb(c: f32) -> f32 {
-    let c = c.clamp(0.0, 1.0);
-    if c <= 0.003_130_8 {
-        12.92 * c
-    } else {
-        1.055 * c.powf(1.0 / 2.4) - 0.055
-    }
-}
-
-/// The inverse of [`linear_to_srgb`]: from encoded `[0, 1]` to linear.
-pub fn srgb_to_linear(c: f32) -> f32 {
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
+/// A rectangle of a [`Film`] (x0, y0, width, height), copied out so that one worker at
+/// a time can add samples to it; written back with [`Film::write_tile`].
+#[derive(Clone, Debug)]
+pub struct FilmTile {
+    pub rect: (u32, u32, u32, u32),
+    pub sums: Vec<DVec3>,
+    pub kept: Vec<u32>,
+    pub done: Vec<u32>,
 }
 
 impl Film {
-    pub fn new(width: u32, height: u32) -> Self {
+    /// An empty film for the sample indices `samples` of a `width × height` image.
+    pub fn new(width: u32, height: u32, samples: Range<u32>) -> Self {
+        let n = width as usize * height as usize;
         Film {
             width,
             height,
-            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+            samples,
+            sums: vec![DVec3::ZERO; n],
+            kept: vec![0; n],
+            done: vec![0; n],
         }
     }
 
-    /// Mean of all pixels.
-    pub fn mean(&self) -> Vec3 {
-        let sum = self
-            .pixels
-            .iter()
-            .fold(glam::DVec3::ZERO, |acc, p| acc + p.as_dvec3());
-        (sum / self.pixels.len().max(1) as f64).as_vec3()
+    /// Fewest samples any pixel has.
+    pub fn min_done(&self) -> u32 {
+        self.done.iter().copied().min().unwrap_or(0)
     }
 
-    fn to_rgb32f(&self) -> Rgb32FImage {
-        let data = self.pixels.iter().flat_map(|p| p.to_array()).collect();
-        Rgb32FImage::from_raw(self.width, self.height, data).expect("film size matches its pixels")
+    /// Samples taken over the whole image.
+    pub fn total_done(&self) -> u64 {
+        self.done.iter().map(|&d| u64::from(d)).sum()
     }
 
-    fn to_srgb8(&self) -> RgbImage {
-        let data = self
-            .pixels
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
-            .collect();
-        RgbImage::from_raw(self.width, self.height, data).expect("film size matches its pixels")
+    /// Whether every pixel has every sample of the film's range.
+    pub fn is_complete(&self) -> bool {
+        self.min_done() >= self.samples.len() as u32
     }
 
-    /// Encodes the image in `format` into memory.
-    pub fn encode(&self, format: OutputFormat) -> Result<Vec<u8>, image::ImageError> {
-        let mut bytes = std::io::Cursor::new(Vec::new());
-        match format {
-            OutputFormat::Png => self.to_srgb8().write_to(&mut bytes, ImageFormat::Png)?,
-            OutputFormat::Exr => self
-                .to_rgb32f()
-                .write_to(&mut bytes, ImageFormat::OpenExr)?,
-            OutputFormat::Hdr => self.to_rgb32f().write_to(&mut bytes, ImageFormat::Hdr)?,
+    /// The image so far: each pixel the mean of its finite samples (black without any).
+    pub fn resolve(&self) -> Image {
+        let mut image = Image::new(self.width, self.height);
+        for (p, (sum, &kept)) in image.pixels.iter_mut().zip(self.sums.iter().zip(&self.kept)) {
+            if kept > 0 {
+                *p = (*sum / f64::from(kept)).as_vec3();
+            }
         }
-        Ok(bytes.into_inner())
+        image
     }
 
-    /// Writes the image to `path` in the format its extension names, atomically.
-    pub fn save(&self, path: &Path) -> Result<(), FilmError> {
-        let format = OutputFormat::from_path(path)?;
-        let bytes = self.encode(format).map_err(|e| FilmError::Write {
-            path: path.to_owned(),
-            reason: e.to_string(),
-        })?;
-        write_atomically(path, &bytes)
+    /// Adds the samples of pixel `i` of another film: its sum, finite and taken counts.
+    #[inline]
+    pub fn add_pixel(&mut self, i: usize, sum: DVec3, kept: u32, done: u32) {
+        self.sums[i] += sum;
+        self.kept[i] += kept;
+        self.done[i] += done;
     }
 
-    /// Reads a PNG (taken as sRGB), EXR or HDR (linear) image into linear RGB.
-    pub fn load(path: &Path) -> Result<Film, FilmError> {
-        let fail = |reason: String| FilmError::Read {
-            path: path.to_owned(),
-            reason,
-        };
-        let image = image::ImageReader::open(path)
-            .map_err(|e| fail(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| fail(e.to_string()))?
-            .decode()
-            .map_err(|e| fail(e.to_string()))?;
-        Ok(Film::from_image(image))
-    }
-
-    /// A decoded image in linear RGB: floating-point images (EXR, HDR) as they are,
-    /// 8- and 16-bit ones (PNG, JPEG, …) decoded from sRGB.
-    pub fn from_image(image: image::DynamicImage) -> Film {
-        let linear = matches!(
-            image.color(),
-            image::ColorType::Rgb32F | image::ColorType::Rgba32F
+    /// Adds the film of the sample range that follows this one (a later shard), so that
+    /// the range grows to `self.samples.start .. other.samples.end`. Sums are added per
+    /// pixel, earlier range first; see [`merge`] for how that compares with one process.
+    pub fn merge(&mut self, other: &Film) {
+        assert_eq!(
+            (self.width, self.height, self.samples.end),
+            (other.width, other.height, other.samples.start),
+            "films of one image and adjacent sample ranges"
         );
-        let rgb = image.to_rgb32f();
-        let decode = |c: f32| if linear { c } else { srgb_to_linear(c) };
-        Film {
-            width: rgb.width(),
-            height: rgb.height(),
-            pixels: rgb
-                .pixels()
-                .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
-                .collect(),
+        for i in 0..self.sums.len() {
+            self.add_pixel(i, other.sums[i], other.kept[i], other.done[i]);
+        }
+        self.samples.end = other.samples.end;
+    }
+
+    /// The film cut into `tile_size`-square tiles (smaller at the right and bottom
+    /// edges), row by row.
+    pub fn tiles(&self, tile_size: u32) -> Vec<FilmTile> {
+        tile_rects(self.width, self.height, tile_size)
+            .into_iter()
+            .map(|rect| {
+                let mut tile = FilmTile {
+                    rect,
+                    sums: Vec::new(),
+                    kept: Vec::new(),
+                    done: Vec::new(),
+                };
+                for row in self.rows(rect) {
+                    tile.sums.extend_from_slice(&self.sums[row.clone()]);
+                    tile.kept.extend_from_slice(&self.kept[row.clone()]);
+                    tile.done.extend_from_slice(&self.done[row]);
+                }
+                tile
+            })
+            .collect()
+    }
+
+    /// Puts a tile's pixels back in their place.
+    pub fn write_tile(&mut self, tile: &FilmTile) {
+        let w = tile.rect.2 as usize;
+        for (r, row) in self.rows(tile.rect).enumerate() {
+            let src = r * w..(r + 1) * w;
+            self.sums[row.clone()].copy_from_slice(&tile.sums[src.clone()]);
+            self.kept[row.clone()].copy_from_slice(&tile.kept[src.clone()]);
+            self.done[row].copy_from_slice(&tile.done[src]);
         }
     }
-}
 
-/// Checks before any work is done that `path` can be written: its format is known and
-/// its directory accepts a new file. Nothing is left behind.
-pub fn check_writable(path: &Path) -> Result<(), FilmError> {
-    OutputFormat::from_path(path)?;
-    let fail = |reason: String| FilmError::Write {
-        path: path.to_owned(),
-        reason,
-    };
-    if path.is_dir() {
-        return Err(fail("it is a directory".into()));
-    }
-    let dir = parent_dir(path);
-    tempfile::Builder::new()
-        .prefix(".ember-check")
-        .tempfile_in(dir)
-        .map(drop)
-        .map_err(|e| fail(io_reason(&e)))
-}
-
-/// An I/O error's message without the temporary file's name that tempfile appends.
-fn io_reason(e: &std::io::Error) -> String {
-    match e.raw_os_error() {
-        Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
-        None => e.to_string(),
+    /// The index ranges of the rows of a rectangle in the pixel arrays.
+    fn rows(&self, (x0, y0, w, h): (u32, u32, u32, u32)) -> impl Iterator<Item = Range<usize>> {
+        let width = self.width as usize;
+        (y0 as usize..(y0 + h) as usize)
+            .map(move |y| y * width + x0 as usize..y * width + (x0 + w) as usize)
     }
 }
 
-fn parent_dir(path: &Path) -> &Path {
-    match path.parent() {
-        Some(p) if !p.as_os_str().is_empty() => p,
-        _ => Path::new("."),
+/// The tiles of a `width × height` image as (x0, y0, w, h), row by row.
+pub fn tile_rects(width: u32, height: u32, tile_size: u32) -> Vec<(u32, u32, u32, u32)> {
+    let mut tiles = Vec::new();
+    for y0 in (0..height).step_by(tile_size as usize) {
+        for x0 in (0..width).step_by(tile_size as usize) {
+            tiles.push((
+                x0,
+                y0,
+                tile_size.min(width - x0),
+                tile_size.min(height - y0),
+            ));
+        }
     }
-}
-
-/// Writes `bytes` to a temporary file beside `path`, flushes it to disk and renames it
-/// over `path`: readers see the old file or the whole new one, never a part.
-pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), FilmError> {
-    let fail = |reason: String| FilmError::Write {
-        path: path.to_owned(),
-        reason,
-    };
-    let mut file = tempfile::Builder::new()
-        .prefix(".ember-")
-        .suffix(".tmp")
-        .tempfile_in(parent_dir(path))
-        .map_err(|e| fail(io_reason(&e)))?;
-    file.write_all(bytes).map_err(|e| fail(e.to_string()))?;
-    // tempfile creates files readable by their owner only; an image or checkpoint is an
-    // ordinary file, so keep the mode of the file being replaced, or rw-r--r--.
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::PermissionsExt;
-        let mode = std::fs::metadata(path).map_or(0o644, |m| m.permissions().mode() & 0o7777);
-        file.as_file()
-            .set_permissions(std::fs::Permissions::from_mode(mode))
-            .map_err(|e| fail(e.to_string()))?;
-    }
-    file.as_file().sync_all().map_err(|e| fail(e.to_string()))?;
-    file.persist(path).map_err(|e| fail(e.error.to_string()))?;
-    Ok(())
+    tiles
 }

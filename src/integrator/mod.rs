@@ -33,7 +33,7 @@ use crate::sampling::{CosinePdf, LightSampler, Pdf, Rng};
 use crate::scene::{Scatter, Scene, SurfacePoint};
 
 /// Which light-transport estimator `ember render` uses.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IntegratorKind {
     /// Path tracing that samples only the material (cosine-weighted for diffuse).
     Bsdf,

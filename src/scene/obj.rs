@@ -522,7 +522,7 @@ fn load_texture(path: &Path) -> Result<Texture, String> {
         &format!("a {}x{} texture", image.width(), image.height()),
         texels * 24,
     )?;
-    let film = crate::film::Film::from_image(image);
+    let film = crate::image::Image::from_image(image);
     if film.width == 0 || film.height == 0 {
         return Err("image is empty".into());
     }

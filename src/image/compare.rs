@@ -1,7 +1,7 @@
 //! How far an image is from a reference: MSE, relative MSE and PSNR over all pixels
 //! and channels of linear RGB (the metrics of `shared/references/cornell-box/README.md`).
 
-use super::Film;
+use super::Image;
 
 /// Error of a test image against a reference of the same size.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -26,7 +26,7 @@ pub struct SizeMismatch {
 }
 
 /// Compares `image` against `reference`.
-pub fn compare(image: &Film, reference: &Film) -> Result<ImageError, SizeMismatch> {
+pub fn compare(image: &Image, reference: &Image) -> Result<ImageError, SizeMismatch> {
     if (image.width, image.height) != (reference.width, reference.height)
         || image.pixels.len() != reference.pixels.len()
     {
@@ -74,8 +74,8 @@ mod tests {
 
     #[test]
     fn metrics_of_a_known_difference() {
-        let mut a = Film::new(2, 1);
-        let mut b = Film::new(2, 1);
+        let mut a = Image::new(2, 1);
+        let mut b = Image::new(2, 1);
         b.pixels = vec![Vec3::splat(0.1), Vec3::splat(0.3)];
         a.pixels = vec![Vec3::splat(0.2), Vec3::splat(0.3)];
         let e = compare(&a, &b).unwrap();
@@ -83,6 +83,6 @@ mod tests {
         assert!((e.mse - 0.005).abs() < 1e-9);
         assert!((e.rel_mse - 0.5 * 0.01 / (0.01 + 0.01)).abs() < 1e-6);
         assert!((e.psnr - 10.0 * (200.0f64).log10()).abs() < 1e-6);
-        assert!(compare(&Film::new(2, 2), &b).is_err());
+        assert!(compare(&Image::new(2, 2), &b).is_err());
     }
 }

@@ -1,0 +1,51 @@
+//! `ember merge`: shards of a split render into one image.
+
+use std::path::PathBuf;
+use std::time::Instant;
+
+use anyhow::Result;
+use clap::Args;
+
+use ember::film::merge;
+use ember::image;
+
+#[derive(Args)]
+pub struct MergeArgs {
+    /// The shard files (`ember render --shard I/N -o FILE`), in any order.
+    #[arg(required = true)]
+    shards: Vec<PathBuf>,
+    /// The merged image; the extension picks the format: .png, .exr or .hdr.
+    #[arg(short, long)]
+    output: PathBuf,
+    /// Merge the shards that are there even if sample ranges are missing or shards are
+    /// incomplete: every pixel is then the mean of the samples present (still unbiased,
+    /// only noisier). The missing ranges are listed.
+    #[arg(long)]
+    allow_partial: bool,
+}
+
+pub fn run(args: MergeArgs) -> Result<()> {
+    image::check_output(&args.output)?;
+    let start = Instant::now();
+    let (film, report) = merge::merge(&args.shards, args.allow_partial)?;
+    for range in &report.missing {
+        eprintln!(
+            "warning: no shard holds samples {}..{} of 0..{}: the image has fewer samples",
+            range.start, range.end, film.samples.end
+        );
+    }
+    for path in &report.incomplete {
+        eprintln!("warning: {} is incomplete: merged what it has", path.display());
+    }
+    film.resolve().save(&args.output)?;
+    eprintln!(
+        "merged {} shards ({}x{}, {} spp) into {} in {:.2} s",
+        args.shards.len(),
+        film.width,
+        film.height,
+        film.samples.end,
+        args.output.display(),
+        start.elapsed().as_secs_f64()
+    );
+    Ok(())
+}

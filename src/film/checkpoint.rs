@@ -1,0 +1,373 @@
+//! The film file: a [`Film`] with the header that says which render it belongs to.
+//! Checkpoints of interrupted renders and the shards of a split render are both film
+//! files; they are written atomically and checked whole on reading.
+//!
+//! Layout (little-endian): the magic `EMBERCKP`, a `u32` format version, a `u32` length
+//! and that many bytes of JSON header (see [`Header`]), then per pixel row by row `f64` ×
+//! 3 sums, `u32` finite samples, `u32` samples taken, and last the `u64` XXH3 hash of
+//! everything before it, so a damaged or truncated file is refused.
+//!
+//! Version history: 1 (no accel, no algorithm version, a scene hash over `Debug` text,
+//! no sample range, FNV-1a); 2 (this one). Files of other versions are refused.
+
+use std::fs::File;
+use std::io::{BufReader, Read};
+use std::ops::Range;
+use std::path::{Path, PathBuf};
+
+use glam::DVec3;
+use serde_json::{json, Map, Value};
+use xxhash_rust::xxh3::Xxh3;
+
+use super::Film;
+use crate::io::{self, WriteError};
+
+const MAGIC: &[u8; 8] = b"EMBERCKP";
+/// The film file format this ember reads and writes.
+pub const FORMAT_VERSION: u32 = 2;
+const PIXEL_BYTES: usize = 3 * 8 + 4 + 4;
+/// A header this long is surely not ours (it holds a few hundred bytes of settings).
+const MAX_HEADER_BYTES: u32 = 1 << 20;
+
+/// What must be equal for two films to hold samples of the same image, as (name, value)
+/// pairs in a fixed order: settings, camera, scene fingerprint, accelerator, algorithm.
+pub type Identity = Vec<(String, String)>;
+
+/// What a film file says about its film.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Header {
+    pub identity: Identity,
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel of the whole render (`--spp`).
+    pub spp: u32,
+    /// The sample indices this film holds.
+    pub samples: Range<u32>,
+    /// `(I, N)` for shard I of N, `None` for a checkpoint of a whole render.
+    pub shard: Option<(u32, u32)>,
+    /// Fewest samples any pixel has (`samples.len()` when the film is complete).
+    pub min_done: u32,
+}
+
+impl Header {
+    /// The shard's name for messages: `shard 2/8`, or `the render`.
+    pub fn label(&self) -> String {
+        match self.shard {
+            Some((i, n)) => format!("shard {i}/{n}"),
+            None => "a whole render".into(),
+        }
+    }
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CheckpointError {
+    #[error("cannot read {path}: {reason}")]
+    Read { path: PathBuf, reason: String },
+    #[error("{path} is not a valid ember checkpoint or shard: {reason}")]
+    Invalid { path: PathBuf, reason: String },
+    #[error(
+        "{path} has film file format version {found}, but this ember reads only version \
+         {FORMAT_VERSION}: render it again"
+    )]
+    Version { path: PathBuf, found: u32 },
+    #[error("{path} was made with {key} {theirs}, but this render has {key} {ours}")]
+    Mismatch {
+        path: PathBuf,
+        key: String,
+        theirs: String,
+        ours: String,
+    },
+    #[error("{path} holds samples {theirs:?} of each pixel, but this render needs {ours:?}")]
+    Range {
+        path: PathBuf,
+        theirs: Range<u32>,
+        ours: Range<u32>,
+    },
+    #[error("{path} already has {done} samples per pixel, more than --spp {spp}")]
+    PastTarget { path: PathBuf, done: u32, spp: u32 },
+    #[error(transparent)]
+    Write(#[from] WriteError),
+}
+
+fn header_json(header: &Header) -> String {
+    let identity: Map<String, Value> = header
+        .identity
+        .iter()
+        .map(|(k, v)| (k.clone(), Value::String(v.clone())))
+        .collect();
+    json!({
+        "identity": identity,
+        "width": header.width,
+        "height": header.height,
+        "spp": header.spp,
+        "samples": [header.samples.start, header.samples.end],
+        "shard": header.shard.map(|(i, n)| [i, n]),
+        "min_done": header.min_done,
+    })
+    .to_string()
+}
+
+/// Encodes a film file. The header's size, range and `min_done` are taken from `film`.
+pub fn encode(header: &Header, film: &Film) -> Vec<u8> {
+    let header = Header {
+        width: film.width,
+        height: film.height,
+        samples: film.samples.clone(),
+        min_done: film.min_done(),
+        ..header.clone()
+    };
+    let json = header_json(&header);
+    let mut out = Vec::with_capacity(24 + json.len() + film.done.len() * PIXEL_BYTES);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(json.len() as u32).to_le_bytes());
+    out.extend_from_slice(json.as_bytes());
+    for ((s, k), d) in film.sums.iter().zip(&film.kept).zip(&film.done) {
+        for c in s.to_array() {
+            out.extend_from_slice(&c.to_le_bytes());
+        }
+        out.extend_from_slice(&k.to_le_bytes());
+        out.extend_from_slice(&d.to_le_bytes());
+    }
+    let hash = xxhash_rust::xxh3::xxh3_64(&out);
+    out.extend_from_slice(&hash.to_le_bytes());
+    out
+}
+
+/// Writes a film file atomically: the file is the old one or the whole new one.
+pub fn save(path: &Path, header: &Header, film: &Film) -> Result<(), CheckpointError> {
+    Ok(io::write_atomically(path, &encode(header, film))?)
+}
+
+/// A film file opened for reading: its header is read and checked for form; the pixels
+/// follow one by one ([`FilmReader::read_pixels`]), hashed as they go, so that a large
+/// file is never held in memory whole.
+pub struct FilmReader {
+    pub path: PathBuf,
+    pub header: Header,
+    reader: BufReader<File>,
+    hasher: Xxh3,
+}
+
+impl FilmReader {
+    pub fn open(path: &Path) -> Result<FilmReader, CheckpointError> {
+        let file = File::open(path).map_err(|e| CheckpointError::Read {
+            path: path.to_owned(),
+            reason: e.to_string(),
+        })?;
+        let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let mut reader = FilmReader {
+            path: path.to_owned(),
+            header: Header {
+                identity: Vec::new(),
+                width: 0,
+                height: 0,
+                spp: 0,
+                samples: 0..0,
+                shard: None,
+                min_done: 0,
+            },
+            reader: BufReader::with_capacity(1 << 16, file),
+            hasher: Xxh3::new(),
+        };
+        let json_len = reader.read_preamble()?;
+        let mut json = vec![0; json_len as usize];
+        reader.read_hashed(&mut json)?;
+        reader.header = parse_header(&json).map_err(|reason| reader.invalid(&reason))?;
+        let h = &reader.header;
+        let pixels = u64::from(h.width) * u64::from(h.height);
+        let expected = 16 + u64::from(json_len) + pixels * PIXEL_BYTES as u64 + 8;
+        if file_len != expected {
+            return Err(reader.invalid(&format!(
+                "{file_len} bytes where its header promises {expected} (truncated or damaged)"
+            )));
+        }
+        Ok(reader)
+    }
+
+    fn invalid(&self, reason: &str) -> CheckpointError {
+        CheckpointError::Invalid {
+            path: self.path.clone(),
+            reason: reason.to_owned(),
+        }
+    }
+
+    fn read_hashed(&mut self, buf: &mut [u8]) -> Result<(), CheckpointError> {
+        self.reader
+            .read_exact(buf)
+            .map_err(|_| self.invalid("too short (truncated)"))?;
+        self.hasher.update(buf);
+        Ok(())
+    }
+
+    /// Reads magic and version; returns the header's length.
+    fn read_preamble(&mut self) -> Result<u32, CheckpointError> {
+        let mut preamble = [0u8; 16];
+        self.read_hashed(&mut preamble)?;
+        if &preamble[..8] != MAGIC {
+            return Err(self.invalid("wrong magic bytes"));
+        }
+        let word = |at: usize| u32::from_le_bytes(preamble[at..at + 4].try_into().expect("4"));
+        if word(8) != FORMAT_VERSION {
+            return Err(CheckpointError::Version {
+                path: self.path.clone(),
+                found: word(8),
+            });
+        }
+        match word(12) {
+            len if len <= MAX_HEADER_BYTES => Ok(len),
+            len => Err(self.invalid(&format!("a header of {len} bytes"))),
+        }
+    }
+
+    /// Calls `add(i, sum, kept, done)` for every pixel in order, then checks the hash:
+    /// on an error, what `add` received must be thrown away.
+    pub fn read_pixels(
+        mut self,
+        mut add: impl FnMut(usize, DVec3, u32, u32),
+    ) -> Result<(), CheckpointError> {
+        let pixels = self.header.width as usize * self.header.height as usize;
+        let range_len = self.header.samples.len() as u32;
+        let mut chunk = vec![0u8; PIXEL_BYTES * 4096];
+        let mut i = 0;
+        while i < pixels {
+            let n = (pixels - i).min(4096);
+            let bytes = &mut chunk[..n * PIXEL_BYTES];
+            self.reader
+                .read_exact(bytes)
+                .map_err(|_| self.invalid("too short (truncated)"))?;
+            self.hasher.update(bytes);
+            for px in bytes.chunks_exact(PIXEL_BYTES) {
+                let f = |k: usize| f64::from_le_bytes(px[8 * k..8 * k + 8].try_into().expect("8"));
+                let u = |at: usize| u32::from_le_bytes(px[at..at + 4].try_into().expect("4"));
+                let (sum, kept, done) = (DVec3::new(f(0), f(1), f(2)), u(24), u(28));
+                if kept > done || done > range_len || !sum.is_finite() {
+                    return Err(self.invalid(&format!("inconsistent data at pixel {i}")));
+                }
+                add(i, sum, kept, done);
+                i += 1;
+            }
+        }
+        let mut stored = [0u8; 8];
+        self.reader
+            .read_exact(&mut stored)
+            .map_err(|_| self.invalid("too short (truncated)"))?;
+        if self.hasher.digest() != u64::from_le_bytes(stored) {
+            return Err(self.invalid("checksum mismatch (damaged)"));
+        }
+        Ok(())
+    }
+
+    /// The whole film, checked.
+    pub fn read_film(self) -> Result<Film, CheckpointError> {
+        let h = &self.header;
+        let mut film = Film::new(h.width, h.height, h.samples.clone());
+        let (path, min_done) = (self.path.clone(), h.min_done);
+        self.read_pixels(|i, sum, kept, done| {
+            film.sums[i] = sum;
+            film.kept[i] = kept;
+            film.done[i] = done;
+        })?;
+        if film.min_done() != min_done {
+            return Err(CheckpointError::Invalid {
+                path,
+                reason: "the header's sample count disagrees with the pixels".into(),
+            });
+        }
+        Ok(film)
+    }
+}
+
+fn parse_header(json: &[u8]) -> Result<Header, String> {
+    let v: Value = serde_json::from_slice(json).map_err(|e| format!("header: {e}"))?;
+    let uint = |key: &str| -> Result<u32, String> {
+        v.get(key)
+            .and_then(Value::as_u64)
+            .and_then(|n| u32::try_from(n).ok())
+            .ok_or_else(|| format!("header lacks {key}"))
+    };
+    let pair = |key: &str| -> Result<Option<(u32, u32)>, String> {
+        match v.get(key) {
+            None | Some(Value::Null) => Ok(None),
+            Some(Value::Array(a)) if a.len() == 2 => {
+                let n = |x: &Value| x.as_u64().and_then(|n| u32::try_from(n).ok());
+                match (n(&a[0]), n(&a[1])) {
+                    (Some(a), Some(b)) => Ok(Some((a, b))),
+                    _ => Err(format!("bad {key}")),
+                }
+            }
+            Some(_) => Err(format!("bad {key}")),
+        }
+    };
+    let identity = v
+        .get("identity")
+        .and_then(Value::as_object)
+        .ok_or("header lacks identity")?
+        .iter()
+        .map(|(k, v)| Ok((k.clone(), v.as_str().ok_or("bad identity")?.to_owned())))
+        .collect::<Result<Identity, String>>()?;
+    let (start, end) = pair("samples")?.ok_or("header lacks samples")?;
+    let header = Header {
+        identity,
+        width: uint("width")?,
+        height: uint("height")?,
+        spp: uint("spp")?,
+        samples: start..end,
+        shard: pair("shard")?,
+        min_done: uint("min_done")?,
+    };
+    if start > end || end > header.spp || header.min_done > end - start {
+        return Err("inconsistent sample range".into());
+    }
+    if header.shard.is_some_and(|(i, n)| i >= n) {
+        return Err("bad shard number".into());
+    }
+    Ok(header)
+}
+
+/// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours).
+pub fn first_difference(theirs: &Identity, ours: &Identity) -> Option<(String, String, String)> {
+    ours.iter().find_map(|(key, value)| {
+        let other = theirs
+            .iter()
+            .find(|(k, _)| k == key)
+            .map_or("(none)", |(_, v)| v.as_str());
+        (other != value).then(|| (key.clone(), other.to_owned(), value.clone()))
+    })
+}
+
+/// Reads a film file to continue the render `identity` describes over the sample
+/// indices `samples`: same identity, same first sample, and no more samples than wanted.
+pub fn load(
+    path: &Path,
+    identity: &Identity,
+    samples: Range<u32>,
+) -> Result<Film, CheckpointError> {
+    let reader = FilmReader::open(path)?;
+    if let Some((key, theirs, ours)) = first_difference(&reader.header.identity, identity) {
+        return Err(CheckpointError::Mismatch {
+            path: path.to_owned(),
+            key,
+            theirs,
+            ours,
+        });
+    }
+    let mut film = reader.read_film()?;
+    if film.samples.start != samples.start {
+        return Err(CheckpointError::Range {
+            path: path.to_owned(),
+            theirs: film.samples,
+            ours: samples,
+        });
+    }
+    let most = film.done.iter().copied().max().unwrap_or(0);
+    if most > samples.len() as u32 {
+        return Err(CheckpointError::PastTarget {
+            path: path.to_owned(),
+            done: samples.start + most,
+            spp: samples.end,
+        });
+    }
+    film.samples = samples;
+    Ok(film)
+}

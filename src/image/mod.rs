@@ -1,0 +1,172 @@
+//! Images: a buffer of linear `f32` RGB pixels and its codecs. PNG is written as 8-bit
+//! sRGB, EXR and HDR as linear radiance; any format the `image` crate reads (textures,
+//! references) is decoded to linear RGB. Files appear whole or not at all ([`crate::io`]).
+
+mod compare;
+
+pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+
+use std::path::{Path, PathBuf};
+
+use crate::io::{self, WriteError};
+
+use glam::Vec3;
+use ::image::{DynamicImage, ImageFormat, Rgb32FImage, RgbImage};
+
+/// Linear RGB radiance per pixel, row 0 at the top.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+/// An output file format, chosen by the file's extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum OutputFormat {
+    Png,
+    Exr,
+    Hdr,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ImageFileError {
+    #[error("unsupported output format {0:?}: use .png, .exr or .hdr")]
+    UnknownFormat(PathBuf),
+    #[error(transparent)]
+    Write(#[from] WriteError),
+    #[error("cannot read image {path}: {reason}")]
+    Read { path: PathBuf, reason: String },
+}
+
+impl OutputFormat {
+    pub fn from_path(path: &Path) -> Result<Self, ImageFileError> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("png") => Ok(OutputFormat::Png),
+            Some("exr") => Ok(OutputFormat::Exr),
+            Some("hdr") => Ok(OutputFormat::Hdr),
+            _ => Err(ImageFileError::UnknownFormat(path.to_owned())),
+        }
+    }
+}
+
+/// The sRGB transfer curve, from linear `[0, 1]` to encoded `[0, 1]`.
+pub fn linear_to_srgb(c: f32) -> f32 {
+    let c = c.clamp(0.0, 1.0);
+    if c <= 0.003_130_8 {
+        12.92 * c
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// The inverse of [`linear_to_srgb`]: from encoded `[0, 1]` to linear.
+pub fn srgb_to_linear(c: f32) -> f32 {
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Image {
+            width,
+            height,
+            pixels: vec![Vec3::ZERO; width as usize * height as usize],
+        }
+    }
+
+    /// Mean of all pixels.
+    pub fn mean(&self) -> Vec3 {
+        let sum = self
+            .pixels
+            .iter()
+            .fold(glam::DVec3::ZERO, |acc, p| acc + p.as_dvec3());
+        (sum / self.pixels.len().max(1) as f64).as_vec3()
+    }
+
+    fn to_rgb32f(&self) -> Rgb32FImage {
+        let data = self.pixels.iter().flat_map(|p| p.to_array()).collect();
+        Rgb32FImage::from_raw(self.width, self.height, data).expect("image size matches its pixels")
+    }
+
+    fn to_srgb8(&self) -> RgbImage {
+        let data = self
+            .pixels
+            .iter()
+            .flat_map(|p| p.to_array())
+            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
+            .collect();
+        RgbImage::from_raw(self.width, self.height, data).expect("image size matches its pixels")
+    }
+
+    /// Encodes the image in `format` into memory.
+    pub fn encode(&self, format: OutputFormat) -> Result<Vec<u8>, ::image::ImageError> {
+        let mut bytes = std::io::Cursor::new(Vec::new());
+        match format {
+            OutputFormat::Png => self.to_srgb8().write_to(&mut bytes, ImageFormat::Png)?,
+            OutputFormat::Exr => self
+                .to_rgb32f()
+                .write_to(&mut bytes, ImageFormat::OpenExr)?,
+            OutputFormat::Hdr => self.to_rgb32f().write_to(&mut bytes, ImageFormat::Hdr)?,
+        }
+        Ok(bytes.into_inner())
+    }
+
+    /// Writes the image to `path` in the format its extension names, atomically.
+    pub fn save(&self, path: &Path) -> Result<(), ImageFileError> {
+        let format = OutputFormat::from_path(path)?;
+        let bytes = self.encode(format).map_err(|e| WriteError {
+            path: path.to_owned(),
+            reason: e.to_string(),
+        })?;
+        Ok(io::write_atomically(path, &bytes)?)
+    }
+
+    /// Reads a PNG (taken as sRGB), EXR or HDR (linear) image into linear RGB.
+    pub fn load(path: &Path) -> Result<Image, ImageFileError> {
+        let fail = |reason: String| ImageFileError::Read {
+            path: path.to_owned(),
+            reason,
+        };
+        let image = ::image::ImageReader::open(path)
+            .map_err(|e| fail(e.to_string()))?
+            .with_guessed_format()
+            .map_err(|e| fail(e.to_string()))?
+            .decode()
+            .map_err(|e| fail(e.to_string()))?;
+        Ok(Image::from_image(image))
+    }
+
+    /// A decoded image in linear RGB: floating-point images (EXR, HDR) as they are,
+    /// 8- and 16-bit ones (PNG, JPEG, …) decoded from sRGB.
+    pub fn from_image(image: DynamicImage) -> Image {
+        let linear = matches!(
+            image.color(),
+            ::image::ColorType::Rgb32F | ::image::ColorType::Rgba32F
+        );
+        let rgb = image.to_rgb32f();
+        let decode = |c: f32| if linear { c } else { srgb_to_linear(c) };
+        Image {
+            width: rgb.width(),
+            height: rgb.height(),
+            pixels: rgb
+                .pixels()
+                .map(|p| Vec3::new(decode(p[0]), decode(p[1]), decode(p[2])))
+                .collect(),
+        }
+    }
+}
+
+/// Checks before any work is done that `path` names a known image format and can be
+/// written. Nothing is left behind.
+pub fn check_output(path: &Path) -> Result<(), ImageFileError> {
+    OutputFormat::from_path(path)?;
+    Ok(io::check_writable(path)?)
+}

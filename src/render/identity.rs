@@ -1,0 +1,131 @@
+//! What makes two renders produce the same samples: the settings, the camera, the
+//! accelerator, the version of the algorithms, and a fingerprint of the scene's values.
+//! Checkpoints and shards carry it; resuming and merging require it to be equal.
+
+use glam::{Vec2, Vec3};
+use xxhash_rust::xxh3::Xxh3;
+
+use super::RenderSettings;
+use crate::accel::AccelKind;
+use crate::film::checkpoint::Identity;
+use crate::scene::{Bsdf, CameraSettings, Material, Scene};
+
+/// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
+/// samplers, the integrators, the materials. Bump it whenever a change alters any
+/// sample's value, so that old checkpoints and shards are not mixed with new samples.
+pub const ALGORITHM_VERSION: u32 = 1;
+
+/// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
+/// with `{:?}`, which round-trips exactly.
+pub fn identity(
+    scene: &Scene,
+    camera: &CameraSettings,
+    settings: &RenderSettings,
+    accel: AccelKind,
+) -> Identity {
+    let v = |v: Vec3| format!("{:?},{:?},{:?}", v.x, v.y, v.z);
+    [
+        ("width", settings.width.to_string()),
+        ("height", settings.height.to_string()),
+        ("max-depth", settings.max_depth.to_string()),
+        ("seed", settings.seed.to_string()),
+        ("integrator", format!("{:?}", settings.integrator).to_lowercase()),
+        // The field of view before the eye: the default eye is derived from it.
+        ("fov", format!("{:?}", camera.vfov_degrees)),
+        ("eye", v(camera.eye)),
+        ("look-at", v(camera.look_at)),
+        ("up", v(camera.up)),
+        ("background", v(scene.background)),
+        // The backends may break floating-point ties differently.
+        ("accel", format!("{accel:?}").to_lowercase()),
+        ("algorithm", ALGORITHM_VERSION.to_string()),
+        ("scene", format!("{:016x}", scene_hash(scene))),
+    ]
+    .into_iter()
+    .map(|(k, v)| (k.to_owned(), v))
+    .collect()
+}
+
+/// Feeds values to the hash with their bit patterns, so that equal scenes hash equally
+/// on every platform and Rust version, and any changed value changes the hash.
+struct Fingerprint(Xxh3);
+
+impl Fingerprint {
+    fn u32s(&mut self, values: impl IntoIterator<Item = u32>) {
+        for v in values {
+            self.0.update(&v.to_le_bytes());
+        }
+    }
+
+    fn f32s(&mut self, values: impl IntoIterator<Item = f32>) {
+        self.u32s(values.into_iter().map(f32::to_bits));
+    }
+
+    fn vec3s<'a>(&mut self, values: impl IntoIterator<Item = &'a Vec3>) {
+        self.f32s(values.into_iter().flat_map(|v| v.to_array()));
+    }
+
+    /// A list's length first, so that `[a, b] + [c]` and `[a] + [b, c]` differ.
+    fn len(&mut self, n: usize) {
+        self.0.update(&(n as u64).to_le_bytes());
+    }
+
+    fn material(&mut self, m: &Material) {
+        // Destructured whole: a new field fails to compile here until it is hashed.
+        let Material {
+            name: _, // names do not shape the image
+            diffuse,
+            diffuse_texture,
+            specular,
+            emission,
+            bsdf,
+        } = m;
+        self.vec3s([diffuse, specular, emission]);
+        self.u32s([diffuse_texture.map_or(u32::MAX, |t| t)]);
+        match *bsdf {
+            Bsdf::Diffuse => self.u32s([0]),
+            Bsdf::Metal { fuzz } => {
+                self.u32s([1]);
+                self.f32s([fuzz]);
+            }
+            Bsdf::Glass { ior } => {
+                self.u32s([2]);
+                self.f32s([ior]);
+            }
+            Bsdf::Plastic {
+                fuzz,
+                coat_probability,
+            } => {
+                self.u32s([3]);
+                self.f32s([fuzz, coat_probability]);
+            }
+        }
+    }
+}
+
+/// A fingerprint (XXH3, 64 bits) of every value in the scene that shapes the image:
+/// vertices, normals, texture coordinates, triangles and their materials, the
+/// materials' numbers, and the textures' texels.
+pub fn scene_hash(scene: &Scene) -> u64 {
+    let mut h = Fingerprint(Xxh3::new());
+    let m = &scene.mesh;
+    h.len(m.positions.len());
+    h.vec3s(&m.positions);
+    h.len(m.normals.len());
+    h.vec3s(&m.normals);
+    h.len(m.uvs.len());
+    h.f32s(m.uvs.iter().flat_map(Vec2::to_array));
+    h.len(m.triangles.len());
+    h.u32s(m.triangles.iter().flatten().copied());
+    h.u32s(m.material.iter().copied());
+    h.len(scene.materials.len());
+    for material in &scene.materials {
+        h.material(material);
+    }
+    h.len(scene.textures.len());
+    for t in &scene.textures {
+        h.u32s([t.width, t.height]);
+        h.vec3s(&t.texels);
+    }
+    h.0.digest()
+}
