@@ -346,7 +346,7 @@ fn a_good_scene_renders_and_leaves_only_its_image() {
     let mut names = names;
     names.sort();
     assert_eq!(names, ["out.exr", "scene.obj"]);
-    let image = ember::film::Film::load(&dir.path().join("out.exr")).unwrap();
+    let image = ember::image::Image::load(&dir.path().join("out.exr")).unwrap();
     assert_eq!((image.width, image.height), (16, 8));
     // The scene has no emitter, so a white sky lights it: rays that miss read 1.
     assert!(image.pixels.contains(&glam::Vec3::ONE));

@@ -3,7 +3,7 @@
 use std::path::Path;
 use std::process::Command;
 
-use ember::film::Film;
+use ember::image::Image;
 use glam::Vec3;
 
 fn ember(args: &[&Path]) -> std::process::Output {
@@ -18,8 +18,8 @@ fn ember(args: &[&Path]) -> std::process::Output {
 fn prints_mse_relmse_and_psnr_of_two_exr_files() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
-    let mut image = Film::new(4, 2);
-    let mut reference = Film::new(4, 2);
+    let mut image = Image::new(4, 2);
+    let mut reference = Image::new(4, 2);
     reference.pixels.fill(Vec3::splat(0.1));
     image.pixels.fill(Vec3::splat(0.1));
     image.pixels[0] = Vec3::splat(0.5);
@@ -42,8 +42,8 @@ fn prints_mse_relmse_and_psnr_of_two_exr_files() {
 fn different_sizes_are_a_one_line_error() {
     let dir = tempfile::tempdir().unwrap();
     let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.hdr"));
-    Film::new(4, 2).save(&a).unwrap();
-    Film::new(2, 4).save(&b).unwrap();
+    Image::new(4, 2).save(&a).unwrap();
+    Image::new(2, 4).save(&b).unwrap();
     let out = ember(&[&a, &b]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
@@ -93,9 +93,9 @@ fn render_reproduces_the_reference_camera() {
         "{}",
         String::from_utf8_lossy(&status.stderr)
     );
-    let image = Film::load(&out).unwrap();
-    let reference = Film::load(&reference).unwrap();
-    let error = ember::film::compare(&image, &reference).unwrap();
+    let image = Image::load(&out).unwrap();
+    let reference = Image::load(&reference).unwrap();
+    let error = ember::image::compare(&image, &reference).unwrap();
     // MIS scores relMSE ≈ 0.18 / spp here; a misaligned image scores above 1.
     assert!(error.rel_mse < 0.2, "relMSE {} at 2 spp", error.rel_mse);
     let (mean, expected) = (image.mean(), reference.mean());

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 
 use common::{build, diffuse, inward_cube, with_embree, Built};
 use ember::accel::{Accel, Ray};
-use ember::film::{compare_pixels, Film, ImageError};
+use ember::image::{compare_pixels, Image, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::render::pixel_sample;
 use ember::sampling::{uniform_sphere, Rng};
@@ -187,7 +187,7 @@ fn render_pixels(
         .collect()
 }
 
-fn error_against(pixels: &[(usize, Vec3)], reference: &Film) -> ImageError {
+fn error_against(pixels: &[(usize, Vec3)], reference: &Image) -> ImageError {
     compare_pixels(pixels.iter().map(|&(i, c)| (c, reference.pixels[i])))
 }
 
@@ -202,7 +202,7 @@ fn converges_to(reference_file: &str, max_depth: u32) {
         eprintln!("skipped: ../shared meshes or references are not there");
         return;
     };
-    let reference = Film::load(&reference).expect("reference loads");
+    let reference = Image::load(&reference).expect("reference loads");
     assert_eq!((reference.width, reference.height), (512, 512));
     let loaded = load(&obj);
     for kind in ALL {
@@ -250,7 +250,7 @@ fn light_sampling_wins_on_a_small_light() {
     let loaded = load(&obj);
     let size = 32;
     let reference_pixels = render_pixels(&loaded, IntegratorKind::Mis, 8, size, 1, 2048, 7);
-    let mut reference = Film::new(size, size);
+    let mut reference = Image::new(size, size);
     for (i, c) in reference_pixels {
         reference.pixels[i] = c;
     }

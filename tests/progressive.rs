@@ -1,4 +1,4 @@
-//! Progressive rendering: stopping a render anywhere (between passes, inside a tile,
+//! Filmive rendering: stopping a render anywhere (between passes, inside a tile,
 //! mid-pixel) and resuming it, through a checkpoint file or not, gives the image of an
 //! uninterrupted render bit for bit.
 
@@ -6,13 +6,12 @@ use std::path::Path;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Duration;
 
-use ember::accel::EmbreeAccel;
-use ember::checkpoint;
+use ember::accel::{AccelKind, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
+use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::Film;
 use ember::integrator::IntegratorKind;
-use ember::render::{
-    render, render_progressive, Checkpointing, Progress, RenderControl, RenderSettings,
-};
+use ember::render::{render, render_progressive, Checkpointing, RenderControl, RenderSettings};
 use ember::scene::{load_obj, Camera, CameraSettings, Scene};
 
 struct Fixture {
@@ -56,7 +55,7 @@ fn fixture() -> Fixture {
 
 /// Renders from `progress`, stopping once `stop_after` more samples were taken (the
 /// stop flag is checked before each sample, so this lands inside tiles and pixels).
-fn run(f: &Fixture, progress: Progress, first_pass_spp: u32, stop_after: Option<u64>) -> Progress {
+fn run(f: &Fixture, progress: Film, first_pass_spp: u32, stop_after: Option<u64>) -> Film {
     let stop = AtomicUsize::new(0);
     let taken = AtomicU64::new(0);
     let on_samples = |n: u64| {
@@ -83,7 +82,24 @@ fn run(f: &Fixture, progress: Progress, first_pass_spp: u32, stop_after: Option<
     progress
 }
 
-fn bits(p: &Progress) -> Vec<u64> {
+fn identity_of(scene: &Scene, camera: &CameraSettings, settings: &RenderSettings) -> Identity {
+    ember::render::identity(scene, camera, settings, AccelKind::Embree)
+}
+
+/// The header of a whole render's checkpoint.
+fn header(identity: Identity, settings: &RenderSettings) -> Header {
+    Header {
+        identity,
+        width: settings.width,
+        height: settings.height,
+        spp: settings.spp,
+        samples: 0..settings.spp,
+        shard: None,
+        min_done: 0,
+    }
+}
+
+fn bits(p: &Film) -> Vec<u64> {
     p.sums
         .iter()
         .flat_map(|s| s.to_array().map(f64::to_bits))
@@ -94,14 +110,14 @@ fn bits(p: &Progress) -> Vec<u64> {
 fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
     let f = fixture();
     let pixels = u64::from(f.settings.width * f.settings.height);
-    let fresh = || Progress::new(f.settings.width, f.settings.height);
+    let fresh = || Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let whole = run(&f, fresh(), u32::MAX, None);
     assert!(whole.done.iter().all(|&d| d == f.settings.spp));
     assert!(whole.kept.iter().all(|&k| k <= f.settings.spp));
 
     // The one-pass render of `render()` is the same image.
     let (film, _) = render(&f.scene, &f.accel, &f.camera, &f.settings, &|_| {});
-    assert_eq!(film, whole.film());
+    assert_eq!(film, whole.resolve());
 
     // Any pass schedule, and stops at many points (a stop lands on a tile boundary
     // after the stop flag is seen, so the exact sample count varies; any is valid).
@@ -121,7 +137,7 @@ fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
         assert_eq!(resumed.done, whole.done);
         assert_eq!(resumed.kept, whole.kept);
         assert_eq!(bits(&resumed), bits(&whole));
-        assert_eq!(resumed.film(), whole.film());
+        assert_eq!(resumed.resolve(), whole.resolve());
     }
 }
 
@@ -130,20 +146,20 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
     let f = fixture();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("c.checkpoint");
-    let identity = checkpoint::identity(&f.scene, &f.camera_settings, &f.settings);
+    let identity = identity_of(&f.scene, &f.camera_settings, &f.settings);
     let partial = run(
         &f,
-        Progress::new(f.settings.width, f.settings.height),
+        Film::new(f.settings.width, f.settings.height, 0..f.settings.spp),
         1,
         Some(1234),
     );
-    checkpoint::save(&path, &identity, &partial).unwrap();
-    let loaded = checkpoint::load(&path, &identity, f.settings.spp).unwrap();
+    checkpoint::save(&path, &header(identity.clone(), &f.settings), &partial).unwrap();
+    let loaded = checkpoint::load(&path, &identity, 0..f.settings.spp).unwrap();
     assert_eq!(loaded, partial);
     let resumed = run(&f, loaded, 1, None);
     let whole = run(
         &f,
-        Progress::new(f.settings.width, f.settings.height),
+        Film::new(f.settings.width, f.settings.height, 0..f.settings.spp),
         u32::MAX,
         None,
     );
@@ -154,8 +170,8 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
     other.seed += 1;
     let err = checkpoint::load(
         &path,
-        &checkpoint::identity(&f.scene, &f.camera_settings, &other),
-        other.spp,
+        &identity_of(&f.scene, &f.camera_settings, &other),
+        0..other.spp,
     )
     .unwrap_err();
     assert!(
@@ -167,18 +183,31 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
     scene.mesh.positions[0].x += 1e-3;
     let err = checkpoint::load(
         &path,
-        &checkpoint::identity(&scene, &f.camera_settings, &f.settings),
-        6,
+        &identity_of(&scene, &f.camera_settings, &f.settings),
+        0..6,
     )
     .unwrap_err();
     assert!(err.to_string().contains("scene"), "{err}");
+    // So is the other accelerator: the backends may break ties differently.
+    let bvh = ember::render::identity(&f.scene, &f.camera_settings, &f.settings, AccelKind::Bvh);
+    let err = checkpoint::load(&path, &bvh, 0..6).unwrap_err();
+    assert!(
+        err.to_string().contains("accel embree") && err.to_string().contains("accel bvh"),
+        "{err}"
+    );
+    // A checkpoint continues the same sample range only.
+    let err = checkpoint::load(&path, &identity, 2..6).unwrap_err();
+    assert!(err.to_string().contains("needs 2..6"), "{err}");
     // Any flipped byte is caught by the checksum.
     let bytes = std::fs::read(&path).unwrap();
     for at in [0, 9, 20, bytes.len() / 2, bytes.len() - 1] {
         let mut damaged = bytes.clone();
         damaged[at] ^= 0x10;
         std::fs::write(&path, &damaged).unwrap();
-        assert!(checkpoint::load(&path, &identity, 6).is_err(), "byte {at}");
+        assert!(
+            checkpoint::load(&path, &identity, 0..6).is_err(),
+            "byte {at}"
+        );
     }
 }
 
@@ -187,8 +216,11 @@ fn periodic_checkpoints_are_whole_files() {
     let f = fixture();
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("p.checkpoint");
-    let identity = checkpoint::identity(&f.scene, &f.camera_settings, &f.settings);
-    let write = |p: &Progress| checkpoint::save(&path, &identity, p).unwrap();
+    let mut settings = f.settings;
+    settings.spp = 40;
+    let identity = identity_of(&f.scene, &f.camera_settings, &settings);
+    let header = header(identity.clone(), &settings);
+    let write = |p: &Film| checkpoint::save(&path, &header, p).unwrap();
     let stop = AtomicUsize::new(0);
     let control = RenderControl {
         stop: &stop,
@@ -199,14 +231,12 @@ fn periodic_checkpoints_are_whole_files() {
             write: &write,
         }),
     };
-    let mut settings = f.settings;
-    settings.spp = 40;
-    let progress = Progress::new(settings.width, settings.height);
+    let progress = Film::new(settings.width, settings.height, 0..settings.spp);
     let (progress, _) =
         render_progressive(&f.scene, &f.accel, &f.camera, &settings, progress, &control);
     // However many were written meanwhile, the file on disk is a complete checkpoint.
     if path.exists() {
-        let loaded = checkpoint::load(&path, &identity, settings.spp).unwrap();
+        let loaded = checkpoint::load(&path, &identity, 0..settings.spp).unwrap();
         assert!(loaded.done.iter().zip(&progress.done).all(|(a, b)| a <= b));
     }
     let names: Vec<_> = std::fs::read_dir(dir.path())
@@ -214,4 +244,72 @@ fn periodic_checkpoints_are_whole_files() {
         .map(|e| e.unwrap().file_name())
         .collect();
     assert!(names.len() <= 1, "no temporary files left: {names:?}");
+}
+
+#[test]
+fn the_scene_hash_sees_every_value_that_shapes_the_image() {
+    let f = fixture();
+    let base = ember::render::scene_hash(&f.scene);
+    assert_eq!(
+        base,
+        ember::render::scene_hash(&f.scene.clone()),
+        "deterministic"
+    );
+    type Change = Box<dyn Fn(&mut Scene)>;
+    let changes: Vec<(&str, Change)> = vec![
+        ("a vertex", Box::new(|s| s.mesh.positions[3].y += 1e-4)),
+        ("a triangle", Box::new(|s| s.mesh.triangles[0].swap(1, 2))),
+        ("a material index", Box::new(|s| s.mesh.material[0] ^= 1)),
+        ("an albedo", Box::new(|s| s.materials[0].diffuse.x *= 0.5)),
+        (
+            "an emission",
+            Box::new(|s| s.materials[0].emission.z += 1.0),
+        ),
+        (
+            "a texture",
+            Box::new(|s| {
+                s.textures.push(ember::scene::Texture {
+                    width: 1,
+                    height: 1,
+                    texels: vec![glam::Vec3::ONE],
+                })
+            }),
+        ),
+        // The name does not shape the image.
+    ];
+    for (what, change) in changes {
+        let mut scene = f.scene.clone();
+        change(&mut scene);
+        assert_ne!(ember::render::scene_hash(&scene), base, "{what}");
+    }
+    let mut renamed = f.scene.clone();
+    renamed.materials[0].name = "another".into();
+    assert_eq!(
+        ember::render::scene_hash(&renamed),
+        base,
+        "names do not count"
+    );
+}
+
+#[test]
+fn checkpoints_of_another_format_version_are_refused_in_one_line() {
+    let f = fixture();
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("old.checkpoint");
+    let identity = identity_of(&f.scene, &f.camera_settings, &f.settings);
+    let film = Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
+    let mut bytes = checkpoint::encode(&header(identity.clone(), &f.settings), &film);
+    for version in [1u32, 3] {
+        bytes[8..12].copy_from_slice(&version.to_le_bytes());
+        std::fs::write(&path, &bytes).unwrap();
+        let err = checkpoint::load(&path, &identity, 0..6)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains(&format!("format version {version}"))
+                && err.contains("reads only version 2")
+                && !err.contains('\n'),
+            "{err}"
+        );
+    }
 }

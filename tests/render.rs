@@ -4,7 +4,7 @@ use std::path::Path;
 
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
-use ember::film::Film;
+use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::{render, RenderSettings};
 use ember::scene::{load_obj, Camera, CameraSettings, Scene};
@@ -25,7 +25,7 @@ fn reference_camera() -> CameraSettings {
     }
 }
 
-fn render_on(threads: usize, scene: &Scene, settings: RenderSettings) -> Film {
+fn render_on(threads: usize, scene: &Scene, settings: RenderSettings) -> Image {
     let device = Device::new("").unwrap();
     let accel = EmbreeAccel::build(
         &device,
@@ -64,7 +64,7 @@ fn same_seed_same_image_with_one_or_two_threads() {
     };
     let one = render_on(1, &scene, s);
     let two = render_on(2, &scene, s);
-    let bits = |f: &Film| {
+    let bits = |f: &Image| {
         f.pixels
             .iter()
             .flat_map(|p| p.to_array().map(f32::to_bits))

@@ -7,7 +7,7 @@ use std::process::Command;
 
 use ember::accel::{Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
-use ember::film::Film;
+use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::{render, RenderSettings};
 use ember::scene::{load_obj, CameraSettings};
@@ -48,7 +48,7 @@ fn same_seed_same_image_with_either_backend() {
         a.pixels.len()
     );
     let mean =
-        |f: &Film| f.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / f.pixels.len() as f32;
+        |f: &Image| f.pixels.iter().map(|p| p.element_sum()).sum::<f32>() / f.pixels.len() as f32;
     assert!(
         (mean(&a) - mean(&b)).abs() <= 0.01 * mean(&a),
         "{} vs {}",
@@ -83,5 +83,5 @@ fn cli_renders_with_the_native_bvh() {
         String::from_utf8_lossy(&status.stderr)
     );
     assert!(String::from_utf8_lossy(&status.stderr).contains(" bvh "));
-    assert_eq!(Film::load(&out).unwrap().width, 16);
+    assert_eq!(Image::load(&out).unwrap().width, 16);
 }

@@ -6,7 +6,7 @@ use std::io::{BufRead, BufReader, Read};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
-use ember::film::Film;
+use ember::image::Image;
 
 const EMBER: &str = env!("CARGO_BIN_EXE_ember");
 
@@ -88,7 +88,7 @@ fn check_partial(dir: &Path, code: Option<i32>, expected: i32, text: &str) {
     assert!(text.contains("out.partial.png"), "{text}");
     // The finished name is not used for a partial image.
     assert!(!dir.join("out.png").exists());
-    let partial = Film::load(&dir.join("out.partial.png")).unwrap();
+    let partial = Image::load(&dir.join("out.partial.png")).unwrap();
     assert_eq!((partial.width, partial.height), (24, 20));
     // Whole: every pixel decoded, none NaN.
     assert_eq!(partial.pixels.len(), 24 * 20);
@@ -145,10 +145,10 @@ fn resuming_a_checkpoint_equals_an_uninterrupted_render_bit_for_bit() {
     assert!(ember(&args, &[]).status.success());
 
     let (a, b) = (
-        Film::load(resumed.as_ref()).unwrap(),
-        Film::load(direct.as_ref()).unwrap(),
+        Image::load(resumed.as_ref()).unwrap(),
+        Image::load(direct.as_ref()).unwrap(),
     );
-    let bits = |f: &Film| {
+    let bits = |f: &Image| {
         f.pixels
             .iter()
             .flat_map(|p| p.to_array().map(f32::to_bits))
@@ -159,7 +159,7 @@ fn resuming_a_checkpoint_equals_an_uninterrupted_render_bit_for_bit() {
         std::fs::read(&resumed).unwrap(),
         std::fs::read(&direct).unwrap()
     );
-    assert_ne!(bits(&a), bits(&Film::load(first.as_ref()).unwrap()));
+    assert_ne!(bits(&a), bits(&Image::load(first.as_ref()).unwrap()));
 
     // Mismatched settings are refused, naming the setting.
     let mut args = render_args(&resumed, "8");
@@ -373,7 +373,8 @@ fn a_texture_larger_than_memory_is_refused_naming_its_size() {
 
 #[test]
 fn a_killed_render_leaves_a_whole_checkpoint() {
-    use ember::checkpoint;
+    use ember::accel::AccelKind;
+    use ember::film::checkpoint;
     use ember::integrator::IntegratorKind;
     use ember::render::RenderSettings;
     use ember::scene::{load_obj, CameraSettings};
@@ -411,8 +412,9 @@ fn a_killed_render_leaves_a_whole_checkpoint() {
         seed: 5,
         integrator: IntegratorKind::default(),
     };
-    let identity = checkpoint::identity(&scene, &CameraSettings::framing(lo, hi, 40.0), &settings);
-    let progress = checkpoint::load(&ckpt, &identity, settings.spp).unwrap();
+    let camera = CameraSettings::framing(lo, hi, 40.0);
+    let identity = ember::render::identity(&scene, &camera, &settings, AccelKind::Embree);
+    let progress = checkpoint::load(&ckpt, &identity, 0..settings.spp).unwrap();
     assert!(progress.total_done() > 0);
     assert!(!out.exists());
 }

@@ -35,7 +35,10 @@ pub fn run(args: MergeArgs) -> Result<()> {
         );
     }
     for path in &report.incomplete {
-        eprintln!("warning: {} is incomplete: merged what it has", path.display());
+        eprintln!(
+            "warning: {} is incomplete: merged what it has",
+            path.display()
+        );
     }
     film.resolve().save(&args.output)?;
     eprintln!(

@@ -136,7 +136,6 @@ pub fn embree_config(threads: Option<u32>) -> String {
     parts.join(",")
 }
 
-
 /// The sample indices of shard `i` of `n` of a render of `spp` samples per pixel.
 pub fn shard_samples(spp: u32, (i, n): (u32, u32)) -> Range<u32> {
     let at = |k: u32| (u64::from(k) * u64::from(spp) / u64::from(n)) as u32;
@@ -172,9 +171,7 @@ struct RenderPlan {
 
 impl RenderPlan {
     fn from_args(args: RenderArgs) -> RenderPlan {
-        let output = args
-            .output
-            .unwrap_or_else(|| default_output(&args.scene));
+        let output = args.output.unwrap_or_else(|| default_output(&args.scene));
         let checkpoint = match (args.shard, args.checkpoint) {
             (Some(_), _) => output.clone(),
             (None, Some(path)) => path,
@@ -449,7 +446,10 @@ fn shard_note(plan: &RenderPlan) -> String {
 fn report_start(plan: &RenderPlan, film: &Film) {
     let s = &plan.settings;
     let resumed = if plan.resume {
-        format!(", resuming from {} spp", film.samples.start + film.min_done())
+        format!(
+            ", resuming from {} spp",
+            film.samples.start + film.min_done()
+        )
     } else {
         String::new()
     };
@@ -512,9 +512,7 @@ fn render_with_progress<A: Accel>(
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
 ) -> (Film, RenderStats) {
-    let total = u64::from(settings.width)
-        * u64::from(settings.height)
-        * film.samples.len() as u64;
+    let total = u64::from(settings.width) * u64::from(settings.height) * film.samples.len() as u64;
     let bar = ProgressBar::new(total);
     bar.set_position(film.total_done());
     bar.set_style(

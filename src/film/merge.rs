@@ -29,7 +29,9 @@ pub enum MergeError {
     File(#[from] CheckpointError),
     #[error("{path} is given twice")]
     SamePath { path: PathBuf },
-    #[error("{path} was made with {key} {theirs}, but {other} (like most shards) with {key} {ours}")]
+    #[error(
+        "{path} was made with {key} {theirs}, but {other} (like most shards) with {key} {ours}"
+    )]
     Mismatch {
         path: PathBuf,
         other: PathBuf,

@@ -72,7 +72,11 @@ impl Film {
     /// The image so far: each pixel the mean of its finite samples (black without any).
     pub fn resolve(&self) -> Image {
         let mut image = Image::new(self.width, self.height);
-        for (p, (sum, &kept)) in image.pixels.iter_mut().zip(self.sums.iter().zip(&self.kept)) {
+        for (p, (sum, &kept)) in image
+            .pixels
+            .iter_mut()
+            .zip(self.sums.iter().zip(&self.kept))
+        {
             if kept > 0 {
                 *p = (*sum / f64::from(kept)).as_vec3();
             }

@@ -10,8 +10,8 @@ use std::path::{Path, PathBuf};
 
 use crate::io::{self, WriteError};
 
-use glam::Vec3;
 use ::image::{DynamicImage, ImageFormat, Rgb32FImage, RgbImage};
+use glam::Vec3;
 
 /// Linear RGB radiance per pixel, row 0 at the top.
 #[derive(Clone, Debug, PartialEq)]

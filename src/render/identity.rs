@@ -29,7 +29,10 @@ pub fn identity(
         ("height", settings.height.to_string()),
         ("max-depth", settings.max_depth.to_string()),
         ("seed", settings.seed.to_string()),
-        ("integrator", format!("{:?}", settings.integrator).to_lowercase()),
+        (
+            "integrator",
+            format!("{:?}", settings.integrator).to_lowercase(),
+        ),
         // The field of view before the eye: the default eye is derived from it.
         ("fov", format!("{:?}", camera.vfov_degrees)),
         ("eye", v(camera.eye)),

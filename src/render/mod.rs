@@ -122,7 +122,10 @@ pub fn render_progressive<A: Accel>(
         (settings.width, settings.height),
         "film and settings describe the same image"
     );
-    assert!(film.samples.end <= settings.spp, "the film's samples are the render's");
+    assert!(
+        film.samples.end <= settings.spp,
+        "the film's samples are the render's"
+    );
     let start = Instant::now();
     let tracer = PathTracer::new(scene, accel, settings.max_depth, settings.integrator);
     let before = film.total_done();
