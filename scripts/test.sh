@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every check ember has: formatting, lints, the whole test suite against the
-# system's Embree, a bounded fuzzing run, the FFI wrapper under valgrind, and the
+# system's Embree, a split render on a one-node Slurm cluster (scripts/slurm/test.sh,
+# as root: it installs Debian's munge and slurm packages), a bounded fuzzing run, the FFI wrapper under valgrind, and the
 # Embree tests again against Embree 4 (built from
 # ../shared/embree4/setup.sh when that rig is beside the repository).
 set -euo pipefail
@@ -12,6 +13,8 @@ echo "== cargo clippy" >&2
 cargo clippy --release --all-targets --features peers -- -D warnings
 echo "== cargo test (system Embree)" >&2
 cargo test --release
+echo "== Slurm: shards and a merge on a one-node cluster (installs munge and slurm)" >&2
+bash scripts/slurm/test.sh
 echo "== fuzzing OBJ/MTL loading for ${EMBER_CI_FUZZ_SECONDS:-60} s" >&2
 bash .ci/fuzz.sh "${EMBER_CI_FUZZ_SECONDS:-60}"
 echo "== Embree wrapper under valgrind" >&2
