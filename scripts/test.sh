@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Runs every check ember has: formatting, lints, the whole test suite against the
 # system's Embree, a split render on a one-node Slurm cluster (scripts/slurm/test.sh,
-# as root: it installs Debian's munge and slurm packages), a bounded fuzzing run, the FFI wrapper under valgrind, and the
-# Embree tests again against Embree 4 (built from
+# as root: it installs Debian's munge and slurm packages), a bounded fuzzing run, the
+# FFI wrapper under valgrind, and the Embree tests again against Embree 4 (built from
 # ../shared/embree4/setup.sh when that rig is beside the repository).
 set -euo pipefail
 cd "$(dirname "$0")/.."
