@@ -50,12 +50,15 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Err(e) => {
-            // One line: clap's first line already says what is wrong with which flag.
+            // One line: clap's first line says what is wrong with which flag, or ends
+            // in a colon before the list of what is missing, which is joined to it.
             let text = e.render().to_string();
-            eprintln!(
-                "{}",
-                text.lines().next().unwrap_or("error: invalid arguments")
-            );
+            let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+            let first = lines.next().unwrap_or("error: invalid arguments");
+            match lines.next() {
+                Some(what) if first.ends_with(':') => eprintln!("{first} {what}"),
+                _ => eprintln!("{first}"),
+            }
             return ExitCode::from(2);
         }
     };

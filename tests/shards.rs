@@ -17,7 +17,9 @@ use ember::scene::{load_obj, CameraSettings};
 const EMBER: &str = env!("CARGO_BIN_EXE_ember");
 
 fn mesh(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes").join(name)
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("meshes")
+        .join(name)
 }
 
 fn ember(args: &[&str]) -> Output {
@@ -212,7 +214,10 @@ fn a_killed_shard_resumes_from_its_own_file() {
     // The killed shard is incomplete: merging it is refused, naming it.
     let out = dir.path().join("m.png");
     let line = error_line(&merge(&[part.clone(), other.clone()], &out, &[]));
-    assert!(line.contains("slow.shard") && line.contains("incomplete"), "{line}");
+    assert!(
+        line.contains("slow.shard") && line.contains("incomplete"),
+        "{line}"
+    );
     assert!(!out.exists());
 
     // Run again with --resume: it continues and the merge is the one-process image.
@@ -299,9 +304,69 @@ fn faulty_shards_are_refused_in_one_line_naming_the_file() {
     // A missing shard: refused, naming the samples and the shard; merged with
     // --allow-partial into an image of the others, saying what is missing.
     let three = [shards[0].clone(), shards[1].clone(), shards[3].clone()];
-    refuse(&three, &["samples 5..7 of 0..10", "shard 2/4", "--allow-partial"]);
+    refuse(
+        &three,
+        &["samples 5..7 of 0..10", "shard 2/4", "--allow-partial"],
+    );
     let run = merge(&three, &out, &["--allow-partial"]);
     assert!(run.status.success(), "{}", stderr(&run));
     assert!(stderr(&run).contains("no shard holds samples 5..7"));
     assert!(Image::load(&out).unwrap().mean().min_element() > 0.0);
+}
+
+#[test]
+fn bad_shard_and_merge_flags_are_one_line_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("p.shard");
+    let out = out.to_str().unwrap();
+    let scene = mesh("CornellBox-Original.obj");
+    let scene = scene.to_str().unwrap();
+    for (flags, expect) in [
+        (&["--shard", "4/4"][..], "0 <= I < N"),
+        (&["--shard", "1"][..], "expected I/N"),
+        (&["--shard", "0/0"][..], "0 <= I < N"),
+        (
+            &["--shard", "0/2", "--checkpoint", "c"][..],
+            "cannot be used with",
+        ),
+    ] {
+        let mut args = render_args(out, flags);
+        args.push(scene);
+        let run = ember(&args);
+        let text = stderr(&run);
+        assert!(!run.status.success() && text.lines().count() == 1, "{text}");
+        assert!(text.contains(expect), "{text}");
+    }
+    // --shard needs -o: a shard has no default name.
+    let run = ember(&["render", scene, "--shard", "0/2"]);
+    assert!(
+        !run.status.success() && stderr(&run).contains("--output"),
+        "{}",
+        stderr(&run)
+    );
+    // Resuming a shard that was never started.
+    let mut args = render_args(out, &["--shard", "0/2", "--resume"]);
+    args.push(scene);
+    assert!(error_line(&ember(&args)).contains("no checkpoint"));
+
+    // Merge: an unknown output format is refused before any reading; a missing file is
+    // named.
+    let shards = render_shards(dir.path(), 2, &[]);
+    let line = error_line(&merge(&shards, &dir.path().join("m.jpg"), &[]));
+    assert!(
+        line.contains("m.jpg") && line.contains(".png, .exr or .hdr"),
+        "{line}"
+    );
+    let gone = vec![shards[0].clone(), dir.path().join("gone.shard")];
+    let line = error_line(&merge(&gone, &dir.path().join("m.png"), &[]));
+    assert!(
+        line.contains("cannot read") && line.contains("gone.shard"),
+        "{line}"
+    );
+    // An empty shard (more shards than samples) merges fine.
+    let tiny = dir.path().join("tiny");
+    std::fs::create_dir(&tiny).unwrap();
+    let parts = render_shards(&tiny, 12, &[]);
+    let run = merge(&parts, &dir.path().join("m.png"), &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
 }
