@@ -8,9 +8,12 @@
 
 pub mod accel;
 pub mod bench;
+pub mod bsdf;
 pub mod checkpoint;
+pub mod color;
 pub mod embree;
 pub mod film;
+pub mod geometry;
 pub mod integrator;
 pub mod limits;
 pub mod render;

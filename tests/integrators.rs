@@ -13,7 +13,7 @@ use ember::film::{compare_pixels, Film, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::render::pixel_sample;
 use ember::sampling::{uniform_sphere, Rng};
-use ember::scene::{load_obj, Bsdf, Camera, CameraSettings, Material};
+use ember::scene::{load_obj, Camera, CameraSettings, Material, Model};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
@@ -87,7 +87,7 @@ fn furnace_with_mirrors() {
     let mirror = Material {
         specular: Vec3::splat(albedo),
         emission: le,
-        bsdf: Bsdf::Metal { fuzz: 0.0 },
+        model: Model::Conductor { alpha: 0.0 },
         ..Material::default()
     };
     let tris: Vec<_> = inward_cube(3, 0)
