@@ -25,7 +25,7 @@
 //!
 //! At delta vertices (mirrors, smooth glass) every estimator follows the BSDF's sample,
 //! and the emission found next counts in full. Russian roulette may end any path from
-//! segment [`ROULETTE_START_SEGMENT`] on.
+//! vertex [`ROULETTE_START_VERTEX`] on.
 
 use glam::{Vec2, Vec3};
 
@@ -55,9 +55,10 @@ pub struct RayCount {
     pub rays: u64,
 }
 
-/// Russian roulette may end a path once it has this many segments: short paths carry
-/// most of the image, long ones are cut in proportion to their throughput.
-pub const ROULETTE_START_SEGMENT: u32 = 4;
+/// Russian roulette may end a path at this vertex and later (vertex `k` ends segment
+/// `k`), before the vertex samples lights or scatters: short paths carry most of the
+/// image, long ones are cut in proportion to their throughput.
+pub const ROULETTE_START_VERTEX: u32 = 5;
 
 /// A path tracer over one scene and one accelerator; generic so that ray queries are
 /// static calls in the hot loop.
@@ -143,6 +144,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             if segment == self.max_depth {
                 break;
             }
+            // Roulette before the vertex scatters, not after: the emission a step
+            // aimed at (the mixture's light half) is then counted before its
+            // possibly small weight can end the path, which would make fireflies.
+            if segment >= ROULETTE_START_VERTEX {
+                let survive = (throughput * eta_scale).max_element().min(0.95);
+                if !(rng.f32() < survive) {
+                    break;
+                }
+                throughput /= survive;
+            }
             let bsdf = self.scene.bsdf(&surface);
             let wo = -ray.dir;
             let last_vertex = segment + 1 == self.max_depth;
@@ -174,13 +185,6 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             throughput *= step.weight;
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
-            if segment >= ROULETTE_START_SEGMENT {
-                let survive = (throughput * eta_scale).max_element().min(0.95);
-                if !(rng.f32() < survive) {
-                    break;
-                }
-                throughput /= survive;
-            }
             if throughput == Vec3::ZERO {
                 break;
             }
