@@ -289,42 +289,64 @@ fn all_integrators_converge_to_the_direct_lighting_reference() {
 }
 
 /// Glossy floor, rough metal box and rough coated box: every integrator converges to
-/// the independent renderer's image at the rate 1/spp, and `mis` at 32 spp is within
+/// the independent renderer's image at the rate 1/spp, and `mis` at 64 spp is within
 /// the noise the independent renderer itself has at that rate (its README: relMSE ≈
-/// 1.37/spp with independent samples, plus the reference's own 3.3e-4).
+/// 1.37/spp with independent samples, plus the reference's own 3.3e-4). The book's
+/// mixture, one sample per vertex, stays within 4× of `mis` (2.8× at 256 spp).
 #[test]
 fn all_integrators_converge_to_the_glossy_reference() {
-    let errors = errors_against(&GLOSSY_MIX, 8, 32);
+    let errors = errors_against(&GLOSSY_MIX, 16, 64);
     for &(kind, low, high) in &errors {
         let ratio = low / high;
         assert!(
             (2.5..64.0).contains(&ratio),
-            "{kind:?} on GlossyMix: relMSE ratio 8→32 spp is {ratio:.2}"
+            "{kind:?} on GlossyMix: relMSE ratio 16→64 spp is {ratio:.2}"
         );
     }
-    let mis = errors.iter().find(|e| e.0 == IntegratorKind::Mis).unwrap().2;
-    let mixture = errors.iter().find(|e| e.0 == IntegratorKind::Mixture).unwrap().2;
-    let peer = 1.37 / 32.0 + 3.3e-4;
-    assert!(mis < 1.5 * peer, "mis relMSE {mis:.3e} at 32 spp, peer {peer:.3e}");
-    assert!(mixture < 3.0 * mis, "mixture {mixture:.3e} against mis {mis:.3e}");
+    let mis = errors
+        .iter()
+        .find(|e| e.0 == IntegratorKind::Mis)
+        .unwrap()
+        .2;
+    let mixture = errors
+        .iter()
+        .find(|e| e.0 == IntegratorKind::Mixture)
+        .unwrap()
+        .2;
+    let peer = 1.37 / 64.0 + 3.3e-4;
+    assert!(
+        mis < 1.5 * peer,
+        "mis relMSE {mis:.3e} at 64 spp, peer {peer:.3e}"
+    );
+    assert!(
+        mixture < 4.0 * mis,
+        "mixture {mixture:.3e} against mis {mis:.3e}"
+    );
 }
 
 /// A GGX mirror sphere and a glass sphere (delta refraction with 1/η² scaling), with
 /// interpolated normals: every integrator converges to the independent reference.
 #[test]
 fn all_integrators_converge_to_the_sphere_reference() {
-    let errors = errors_against(&SPHERE, 8, 32);
+    let errors = errors_against(&SPHERE, 16, 64);
     for &(kind, low, high) in &errors {
         let ratio = low / high;
         assert!(
             (2.5..64.0).contains(&ratio),
-            "{kind:?} on Sphere: relMSE ratio 8→32 spp is {ratio:.2}"
+            "{kind:?} on Sphere: relMSE ratio 16→64 spp is {ratio:.2}"
         );
     }
-    let mis = errors.iter().find(|e| e.0 == IntegratorKind::Mis).unwrap().2;
+    let mis = errors
+        .iter()
+        .find(|e| e.0 == IntegratorKind::Mis)
+        .unwrap()
+        .2;
     // The independent renderer: 2.75/spp, plus its reference's own 1.3e-3.
-    let peer = 2.75 / 32.0 + 1.3e-3;
-    assert!(mis < 1.5 * peer, "mis relMSE {mis:.3e} at 32 spp, peer {peer:.3e}");
+    let peer = 2.75 / 64.0 + 1.3e-3;
+    assert!(
+        mis < 1.5 * peer,
+        "mis relMSE {mis:.3e} at 64 spp, peer {peer:.3e}"
+    );
 }
 
 /// On a Cornell box whose light is 1% of the ceiling, sampling the light must beat
@@ -342,8 +364,13 @@ fn light_sampling_wins_on_a_small_light() {
     for (i, c) in reference_pixels {
         reference.pixels[i] = c;
     }
-    let error =
-        |kind| error_against(&render_pixels(&loaded, &camera, kind, 8, size, 1, 32, 3), &reference).rel_mse;
+    let error = |kind| {
+        error_against(
+            &render_pixels(&loaded, &camera, kind, 8, size, 1, 32, 3),
+            &reference,
+        )
+        .rel_mse
+    };
     let bsdf = error(IntegratorKind::Bsdf);
     let mixture = error(IntegratorKind::Mixture);
     let mis = error(IntegratorKind::Mis);
@@ -425,9 +452,21 @@ fn convex_objects_under_a_white_sky_are_never_brighter_than_it() {
         ("lambert Kd 1", mtl(white, None, None, None), true),
         ("mirror Ks 1", mtl(None, white, Some(1e9), Some(3)), true),
         ("conductor Ks 1", mtl(None, white, Some(20.0), None), false),
-        ("coated Kd 1 Ks 1", mtl(white, white, Some(50.0), None), false),
-        ("coated Kd 1 Ks 0.5", mtl(white, Some(Vec3::splat(0.5)), Some(5.0), None), false),
-        ("coated rough", mtl(white, Some(Vec3::splat(0.2)), Some(0.0), None), false),
+        (
+            "coated Kd 1 Ks 1",
+            mtl(white, white, Some(50.0), None),
+            false,
+        ),
+        (
+            "coated Kd 1 Ks 0.5",
+            mtl(white, Some(Vec3::splat(0.5)), Some(5.0), None),
+            false,
+        ),
+        (
+            "coated rough",
+            mtl(white, Some(Vec3::splat(0.2)), Some(0.0), None),
+            false,
+        ),
         ("glass", mtl(None, None, None, Some(7)), false),
     ];
     // Rays from outside aimed at the cube: head-on, oblique, grazing an edge.
