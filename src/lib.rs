@@ -10,8 +10,11 @@
 
 pub mod accel;
 pub mod bench;
+pub mod bsdf;
+pub mod color;
 pub mod embree;
 pub mod film;
+pub mod geometry;
 pub mod image;
 pub mod integrator;
 pub mod io;

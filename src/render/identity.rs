@@ -8,7 +8,7 @@ use xxhash_rust::xxh3::Xxh3;
 use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
-use crate::scene::{Bsdf, CameraSettings, Material, Scene};
+use crate::scene::{CameraSettings, Material, Model, Scene};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
@@ -81,26 +81,23 @@ impl Fingerprint {
             diffuse_texture,
             specular,
             emission,
-            bsdf,
+            model,
         } = m;
         self.vec3s([diffuse, specular, emission]);
         self.u32s([diffuse_texture.map_or(u32::MAX, |t| t)]);
-        match *bsdf {
-            Bsdf::Diffuse => self.u32s([0]),
-            Bsdf::Metal { fuzz } => {
+        match *model {
+            Model::Lambert => self.u32s([0]),
+            Model::Conductor { alpha } => {
                 self.u32s([1]);
-                self.f32s([fuzz]);
+                self.f32s([alpha]);
             }
-            Bsdf::Glass { ior } => {
+            Model::Coated { alpha } => {
                 self.u32s([2]);
-                self.f32s([ior]);
+                self.f32s([alpha]);
             }
-            Bsdf::Plastic {
-                fuzz,
-                coat_probability,
-            } => {
+            Model::Glass { ior } => {
                 self.u32s([3]);
-                self.f32s([fuzz, coat_probability]);
+                self.f32s([ior]);
             }
         }
     }
