@@ -34,7 +34,7 @@ const MAX_HEADER_BYTES: u32 = 1 << 20;
 pub type Identity = Vec<(String, String)>;
 
 /// What a film file says about its film.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct Header {
     pub identity: Identity,
     pub width: u32,
@@ -50,7 +50,7 @@ pub struct Header {
 }
 
 impl Header {
-    /// The shard's name for messages: `shard 2/8`, or `the render`.
+    /// The film's name for messages: `shard 2/8`, or `a whole render`.
     pub fn label(&self) -> String {
         match self.shard {
             Some((i, n)) => format!("shard {i}/{n}"),
@@ -158,15 +158,7 @@ impl FilmReader {
         let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
         let mut reader = FilmReader {
             path: path.to_owned(),
-            header: Header {
-                identity: Vec::new(),
-                width: 0,
-                height: 0,
-                spp: 0,
-                samples: 0..0,
-                shard: None,
-                min_done: 0,
-            },
+            header: Header::default(), // read next
             reader: BufReader::with_capacity(1 << 16, file),
             hasher: Xxh3::new(),
         };
