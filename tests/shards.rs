@@ -370,3 +370,25 @@ fn bad_shard_and_merge_flags_are_one_line_errors() {
     let run = merge(&parts, &dir.path().join("m.png"), &[]);
     assert!(run.status.success(), "{}", stderr(&run));
 }
+
+#[test]
+fn resuming_from_a_file_of_another_format_version_is_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let part = dir.path().join("old.shard");
+    let scene = mesh("CornellBox-Original.obj");
+    let mut args = render_args(part.to_str().unwrap(), &["--shard", "0/2"]);
+    args.push(scene.to_str().unwrap());
+    assert!(ember(&args).status.success());
+    // Version 1 (before the sample range, accel and algorithm version were recorded).
+    let mut bytes = std::fs::read(&part).unwrap();
+    bytes[8..12].copy_from_slice(&1u32.to_le_bytes());
+    std::fs::write(&part, &bytes).unwrap();
+    args.insert(1, "--resume");
+    let line = error_line(&ember(&args));
+    assert!(
+        line.contains("old.shard") && line.contains("format version 1"),
+        "{line}"
+    );
+    let line = error_line(&merge(&[part], &dir.path().join("m.png"), &[]));
+    assert!(line.contains("format version 1"), "{line}");
+}

@@ -19,7 +19,7 @@ use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, Integra
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::film::checkpoint::{self, Header, Identity};
-use ember::film::Film;
+use ember::film::{shard_samples, Film};
 use ember::image;
 use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, Camera, CameraSettings, LoadReport, Scene};
@@ -134,12 +134,6 @@ pub fn embree_config(threads: Option<u32>) -> String {
         parts.push(extra);
     }
     parts.join(",")
-}
-
-/// The sample indices of shard `i` of `n` of a render of `spp` samples per pixel.
-pub fn shard_samples(spp: u32, (i, n): (u32, u32)) -> Range<u32> {
-    let at = |k: u32| (u64::from(k) * u64::from(spp) / u64::from(n)) as u32;
-    at(i)..at(i + 1)
 }
 
 /// What the camera flags ask for; the defaults depend on the scene's bounds.

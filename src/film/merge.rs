@@ -19,7 +19,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 
 use super::checkpoint::{first_difference, CheckpointError, FilmReader, Header, Identity};
-use super::Film;
+use super::{shard_samples, Film};
 
 #[derive(Debug, thiserror::Error)]
 pub enum MergeError {
@@ -220,10 +220,9 @@ fn missing_shards(range: &Range<u32>, spp: u32, n: Option<u32>) -> String {
     let Some(n) = n else {
         return String::new();
     };
-    let start = |i: u32| (u64::from(i) * u64::from(spp) / u64::from(n)) as u32;
     let ids: Vec<String> = (0..n)
         .filter(|&i| {
-            let r = start(i)..start(i + 1);
+            let r = shard_samples(spp, (i, n));
             !r.is_empty() && r.start < range.end && range.start < r.end
         })
         .map(|i| format!("{i}/{n}"))

@@ -148,6 +148,14 @@ impl Film {
     }
 }
 
+/// The sample indices of shard `i` of `n` of a render of `spp` samples per pixel:
+/// `floor(i·spp/n) .. floor((i+1)·spp/n)`. The shards of one `n` are disjoint, cover
+/// `0..spp` in order, and differ in size by at most one sample.
+pub fn shard_samples(spp: u32, (i, n): (u32, u32)) -> Range<u32> {
+    let at = |k: u32| (u64::from(k) * u64::from(spp) / u64::from(n)) as u32;
+    at(i)..at(i + 1)
+}
+
 /// The tiles of a `width × height` image as (x0, y0, w, h), row by row.
 pub fn tile_rects(width: u32, height: u32, tile_size: u32) -> Vec<(u32, u32, u32, u32)> {
     let mut tiles = Vec::new();
@@ -162,4 +170,42 @@ pub fn tile_rects(width: u32, height: u32, tile_size: u32) -> Vec<(u32, u32, u32
         }
     }
     tiles
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shards_tile_the_samples_in_order() {
+        for spp in [0, 1, 2, 7, 10, 64, 1_000_000] {
+            for n in [1, 2, 3, 4, 7, 10, 16, 100] {
+                let ranges: Vec<_> = (0..n).map(|i| shard_samples(spp, (i, n))).collect();
+                assert_eq!(ranges[0].start, 0);
+                assert_eq!(ranges[n as usize - 1].end, spp);
+                assert!(ranges.windows(2).all(|w| w[0].end == w[1].start));
+                let (lo, hi) = (spp / n, spp.div_ceil(n));
+                assert!(ranges.iter().all(|r| (lo..=hi).contains(&(r.len() as u32))));
+            }
+        }
+    }
+
+    #[test]
+    fn tiles_written_back_rebuild_the_film() {
+        let mut film = Film::new(37, 21, 0..4);
+        for (i, s) in film.sums.iter_mut().enumerate() {
+            *s = DVec3::splat(i as f64);
+        }
+        film.done
+            .iter_mut()
+            .enumerate()
+            .for_each(|(i, d)| *d = i as u32 % 5);
+        let tiles = film.tiles(16);
+        assert_eq!(tiles.len(), 3 * 2);
+        let mut rebuilt = Film::new(37, 21, 0..4);
+        for tile in &tiles {
+            rebuilt.write_tile(tile);
+        }
+        assert_eq!(rebuilt, film);
+    }
 }
