@@ -7,7 +7,6 @@
 //! the image over threads into a [`film::Film`], which is written as PNG, EXR or HDR.
 
 pub mod accel;
-pub mod bench;
 pub mod checkpoint;
 pub mod embree;
 pub mod film;
