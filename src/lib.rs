@@ -6,8 +6,12 @@
 //! triangles; the [`integrator`] estimates radiance per camera sample; [`render`] spreads
 //! the image over threads into a [`film::Film`], which is written as PNG, EXR or HDR.
 
+#![deny(unsafe_code)]
+
 pub mod accel;
 pub mod checkpoint;
+// The only unsafe code: the FFI to Embree, each block with its SAFETY line.
+#[allow(unsafe_code)]
 pub mod embree;
 pub mod film;
 pub mod integrator;
