@@ -211,8 +211,11 @@ fn compare(mesh: &Mesh, device: &Device) -> Tally {
             (b - a).cross(c - a).normalize_or_zero()
         };
         let mut on_boundary = |h: &Hit, what: &str| {
+            // On an edge, or at the very start of the interval (a ray that starts on
+            // a surface: robust Embree counts t = -0 as in [0, ∞), and rounding decides).
+            let at_start = same_distance(ray, normal(h), h.t, ray.tmin);
             assert!(
-                is_boundary(ray, h, mesh.corners(h.prim)),
+                at_start || is_boundary(ray, h, mesh.corners(h.prim)),
                 "{}: ray {i} {ray:?}: {what}: embree {e:?}, bvh {n:?}",
                 mesh.name
             );
@@ -310,9 +313,14 @@ fn native_bvh_agrees_with_embree() {
             "{}: {t:?}",
             mesh.name
         );
-        // Boundary cases are rounding accidents, not a systematic difference.
+        // Boundary cases are rounding accidents, not a systematic difference: at most
+        // one ray in 2000 for each query. (With Embree's robust mode, rays aimed at
+        // shared edges agree ten times as often as without, while on the soup's
+        // isolated edges robust Embree counts a few more edge hits: 91 intersection
+        // and 43 occlusion cases of 250 000, against 61 and 30 without.)
+        assert!(t.boundary <= t.rays / 2000, "{}: {t:?}", mesh.name);
         assert!(
-            t.boundary + t.occlusion_boundary <= t.rays / 2000,
+            t.occlusion_boundary <= t.rays / 2000,
             "{}: {t:?}",
             mesh.name
         );
