@@ -9,11 +9,14 @@
 #![deny(unsafe_code)]
 
 pub mod accel;
+pub mod bsdf;
 pub mod checkpoint;
+pub mod color;
 // The only unsafe code: the FFI to Embree, each block with its SAFETY line.
 #[allow(unsafe_code)]
 pub mod embree;
 pub mod film;
+pub mod geometry;
 pub mod integrator;
 pub mod limits;
 pub mod render;

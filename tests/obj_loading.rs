@@ -2,7 +2,7 @@
 
 use std::path::Path;
 
-use ember::scene::{load_obj, Bsdf, Scene};
+use ember::scene::{load_obj, Material, Model, MtlValues, Scene};
 use glam::{Vec2, Vec3};
 
 fn load(files: &[(&str, &[u8])]) -> (Scene, ember::scene::LoadReport) {
@@ -104,13 +104,28 @@ newmtl plastic\nKd 0.5 0.5 0.5\nKs 0.1 0.1 0.1\nNs 200\n";
         .iter()
         .map(|&m| &scene.materials[m as usize])
         .collect();
-    assert_eq!(by_tri[0].bsdf, Bsdf::Diffuse);
+    assert_eq!(by_tri[0].model, Model::Lambert);
     assert_eq!(by_tri[0].diffuse, Vec3::new(0.5, 0.25, 0.125));
     assert_eq!(by_tri[1].emission, Vec3::new(17.0, 12.0, 4.0));
     assert_eq!(scene.emitters, vec![1]);
-    assert!(matches!(by_tri[2].bsdf, Bsdf::Metal { fuzz } if fuzz < 0.05));
-    assert_eq!(by_tri[3].bsdf, Bsdf::Glass { ior: 1.5 });
-    assert!(matches!(by_tri[4].bsdf, Bsdf::Plastic { .. }));
+    let alpha_1000 = (2.0f32 / 1002.0).sqrt();
+    assert_eq!(by_tri[2].model, Model::Conductor { alpha: alpha_1000 });
+    assert_eq!(by_tri[3].model, Model::Glass { ior: 1.5 });
+    assert_eq!(
+        by_tri[4].model,
+        Model::Coated {
+            alpha: (2.0f32 / 202.0).sqrt()
+        }
+    );
+    // `d` < 1 is opacity, not glass: ignored for now, with a warning.
+    assert!(
+        report
+            .warnings
+            .iter()
+            .any(|w| w.contains("\"glass\"") && w.contains("opacity")),
+        "{:?}",
+        report.warnings
+    );
     assert_eq!(by_tri[5].name, "default");
 }
 
@@ -164,4 +179,79 @@ fn the_bundled_cornell_box() {
     }
     let light_area: f32 = scene.emitters.iter().map(|&t| scene.mesh.area(t)).sum();
     assert!((light_area - 0.47 * 0.38).abs() < 1e-3, "{light_area}");
+}
+
+/// The MTL mapping table of the README, row by row: the first rule that applies.
+#[test]
+fn mtl_mapping_takes_the_first_rule_that_applies() {
+    let grey = Some(Vec3::splat(0.5));
+    let alpha = |ns: f32| (2.0 / (ns + 2.0)).sqrt();
+    let model =
+        |values: MtlValues, texture: Option<u32>| Material::from_mtl("m", &values, texture).model;
+    let mtl = |kd, ks, ns, ni, illum| MtlValues {
+        kd,
+        ks,
+        ns,
+        ni,
+        illum,
+        ke: None,
+    };
+    // Rule 1: illum 4, 6, 7, 9 is glass whatever else is set; Ni ≤ 1 or absent is 1.5.
+    for illum in [4, 6, 7, 9] {
+        assert_eq!(
+            model(mtl(grey, grey, Some(10.0), Some(2.5), Some(illum)), None),
+            Model::Glass { ior: 2.5 }
+        );
+    }
+    assert_eq!(
+        model(mtl(grey, None, None, Some(0.8), Some(7)), None),
+        Model::Glass { ior: 1.5 }
+    );
+    assert_eq!(
+        model(mtl(None, None, None, None, Some(4)), None),
+        Model::Glass { ior: 1.5 }
+    );
+    // Rule 2: illum 3 or 5, or Ks > 0 with Kd = 0 and no map_Kd; Ns absent is 0.
+    for illum in [3, 5] {
+        assert_eq!(
+            model(mtl(grey, grey, Some(98.0), None, Some(illum)), None),
+            Model::Conductor { alpha: alpha(98.0) }
+        );
+    }
+    assert_eq!(
+        model(mtl(None, grey, None, None, Some(2)), None),
+        Model::Conductor { alpha: 1.0 }
+    );
+    // Rule 3: Kd (or map_Kd) and Ks.
+    assert_eq!(
+        model(mtl(grey, grey, Some(20.0), None, None), None),
+        Model::Coated { alpha: alpha(20.0) }
+    );
+    assert_eq!(
+        model(mtl(None, grey, Some(20.0), None, Some(2)), Some(0)),
+        Model::Coated { alpha: alpha(20.0) }
+    );
+    // Rule 4: everything else.
+    assert_eq!(
+        model(mtl(grey, None, None, None, None), None),
+        Model::Lambert
+    );
+    assert_eq!(
+        model(mtl(None, None, None, None, Some(2)), None),
+        Model::Lambert
+    );
+    // Colours are clamped to [0, 1]: nothing reflects more than it receives.
+    let bright = Material::from_mtl(
+        "b",
+        &mtl(
+            Some(Vec3::splat(3.0)),
+            Some(Vec3::new(-1.0, 2.0, 0.5)),
+            None,
+            None,
+            None,
+        ),
+        None,
+    );
+    assert_eq!(bright.diffuse, Vec3::ONE);
+    assert_eq!(bright.specular, Vec3::new(0.0, 1.0, 0.5));
 }

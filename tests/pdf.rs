@@ -6,24 +6,12 @@ mod common;
 
 use std::f64::consts::PI;
 
+use common::stats::{bin_integrals, check_density, monte_carlo, Binning, Density};
 use common::{build, diffuse, quad, Built};
-use ember::sampling::{
-    CosinePdf, LightPdf, LightSampler, MixturePdf, Onb, Pdf, Rng, UniformSpherePdf,
-};
+use ember::accel::{Accel, Ray};
+use ember::bsdf::Bsdf;
+use ember::sampling::{uniform_sphere, BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf, Rng};
 use glam::Vec3;
-
-/// Mean and standard error of `n` draws of `f`.
-fn monte_carlo(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
-    let (mut sum, mut sum2) = (0.0, 0.0);
-    for _ in 0..n {
-        let x = f();
-        sum += x;
-        sum2 += x * x;
-    }
-    let mean = sum / n as f64;
-    let var = (sum2 / n as f64 - mean * mean).max(0.0);
-    (mean, (var / n as f64).sqrt())
-}
 
 #[test]
 fn book_x_squared_with_linear_density() {
@@ -47,121 +35,14 @@ fn book_x_squared_with_linear_density() {
 fn book_cos_squared_over_the_sphere() {
     // ∫ cos²θ dω = 4π/3 with directions uniform on the sphere, density 1/4π.
     let mut rng = Rng::seeded(2);
-    let pdf = UniformSpherePdf;
     let (estimate, sigma) = monte_carlo(200_000, || {
-        let d = pdf.generate(&mut rng).unwrap();
-        f64::from(d.z * d.z) / f64::from(pdf.value(d))
+        let (u1, u2) = rng.pair();
+        let d = uniform_sphere(u1, u2);
+        f64::from(d.z * d.z) * 4.0 * PI
     });
     assert!(
         (estimate - 4.0 * PI / 3.0).abs() < 4.0 * sigma,
         "{estimate} ± {sigma} vs 4π/3"
-    );
-}
-
-/// `∫ value dω` over each of `nz × nphi` bins of (cos θ, φ) in the frame around
-/// `axis`, by the midpoint rule on `sub × sub` points per bin.
-fn bin_integrals(pdf: &impl Pdf, axis: Vec3, nz: usize, nphi: usize, sub: usize) -> Vec<f64> {
-    let frame = Onb::from_w(axis);
-    let mut out = vec![0.0; nz * nphi];
-    let (dz, dphi) = (2.0 / nz as f64, 2.0 * PI / nphi as f64);
-    for iz in 0..nz {
-        for ip in 0..nphi {
-            let mut sum = 0.0;
-            for sz in 0..sub {
-                for sp in 0..sub {
-                    let z = -1.0 + (iz as f64 + (sz as f64 + 0.5) / sub as f64) * dz;
-                    let phi = (ip as f64 + (sp as f64 + 0.5) / sub as f64) * dphi;
-                    let r = (1.0 - z * z).max(0.0).sqrt();
-                    let local = Vec3::new((r * phi.cos()) as f32, (r * phi.sin()) as f32, z as f32);
-                    sum += f64::from(pdf.value(frame.to_world(local)));
-                }
-            }
-            out[iz * nphi + ip] = sum * dz * dphi / (sub * sub) as f64;
-        }
-    }
-    out
-}
-
-/// Draws `n` directions and bins them like [`bin_integrals`]; also returns how many
-/// draws were void.
-fn histogram(
-    pdf: &impl Pdf,
-    axis: Vec3,
-    nz: usize,
-    nphi: usize,
-    n: usize,
-    seed: u64,
-) -> (Vec<f64>, usize) {
-    let frame = Onb::from_w(axis);
-    let mut rng = Rng::seeded(seed);
-    let mut counts = vec![0.0; nz * nphi];
-    let mut void = 0;
-    for _ in 0..n {
-        let Some(d) = pdf.generate(&mut rng) else {
-            void += 1;
-            continue;
-        };
-        let l = frame.to_local(d.normalize());
-        let iz = (((l.z as f64 + 1.0) / 2.0 * nz as f64) as usize).min(nz - 1);
-        let phi = (l.y as f64).atan2(l.x as f64).rem_euclid(2.0 * PI);
-        let ip = ((phi / (2.0 * PI) * nphi as f64) as usize).min(nphi - 1);
-        counts[iz * nphi + ip] += 1.0;
-    }
-    (counts, void)
-}
-
-/// Pearson's chi-square of observed counts against expected ones, bins with an
-/// expectation under 5 pooled into one; returns (statistic, degrees of freedom).
-fn chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize) {
-    let (mut chi2, mut bins) = (0.0, 0usize);
-    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
-    for (&o, &e) in observed.iter().zip(expected) {
-        if e < 5.0 {
-            pooled_o += o;
-            pooled_e += e;
-        } else {
-            chi2 += (o - e) * (o - e) / e;
-            bins += 1;
-        }
-    }
-    if pooled_e >= 5.0 {
-        chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
-        bins += 1;
-    } else {
-        assert!(
-            pooled_o <= pooled_e + 10.0,
-            "{pooled_o} draws where the density is ~0"
-        );
-    }
-    (chi2, bins.saturating_sub(1))
-}
-
-/// Checks that `pdf` integrates to `total` and that its draws follow `value`.
-fn check_density(name: &str, pdf: &impl Pdf, axis: Vec3, total: f64, seed: u64) {
-    let (nz, nphi, n) = (20, 24, 100_000);
-    let integrals = bin_integrals(pdf, axis, nz, nphi, 12);
-    let integral: f64 = integrals.iter().sum();
-    assert!(
-        (integral - total).abs() < 0.01,
-        "{name}: ∫ value dω = {integral}, expected {total}"
-    );
-    let (counts, void) = histogram(pdf, axis, nz, nphi, n, seed);
-    let expected: Vec<f64> = integrals.iter().map(|p| p * n as f64).collect();
-    let (chi2, dof) = chi_square(&counts, &expected);
-    // About five standard deviations above the mean of the chi-square distribution.
-    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-    eprintln!("{name}: chi2 {chi2:.1} dof {dof} integral {integral:.5} void {void}");
-    assert!(
-        chi2 < limit,
-        "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})"
-    );
-    // The void draws are the mass missing from the integral.
-    let p_void = 1.0 - total;
-    let sigma = (n as f64 * p_void.max(1e-3) * (1.0 - p_void)).sqrt();
-    assert!(
-        (void as f64 - n as f64 * p_void).abs() < 5.0 * sigma + 0.005 * n as f64,
-        "{name}: {void} void draws, expected {}",
-        n as f64 * p_void
     );
 }
 
@@ -214,66 +95,86 @@ fn light_scene(occluded: bool) -> Built {
     )
 }
 
-fn light_pdf<'a>(
-    built: &'a Built,
-    lights: &'a LightSampler,
-) -> LightPdf<'a, ember::accel::EmbreeAccel> {
-    LightPdf {
-        origin: Vec3::ZERO,
-        lights,
-        scene: &built.scene,
-        accel: &built.accel,
-    }
+fn lights_of(built: &Built) -> LightSampler {
+    LightSampler::new(&built.scene.mesh, &built.scene.materials)
+}
+
+/// Checks a [`Pdf`] at the origin of `built`'s scene: its value for a direction is
+/// told that direction's first hit, traced here.
+fn check_pdf(name: &str, built: &Built, pdf: &impl Pdf, total: f64, seed: u64) {
+    let value = |dir: Vec3| {
+        let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
+        pdf.value(dir, hit.as_ref())
+    };
+    let draw = |rng: &mut Rng| {
+        let drawn = pdf.generate(rng)?;
+        let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, drawn.dir));
+        drawn.reached(hit.as_ref()).then_some(drawn.dir)
+    };
+    let density = Density {
+        value: &value,
+        draw: &draw,
+    };
+    check_density(
+        name,
+        &density,
+        Vec3::Y,
+        total,
+        0.01,
+        Binning::default(),
+        seed,
+    );
+}
+
+fn lambert_pdf(bsdf: &Bsdf, normal: Vec3) -> BsdfPdf<'_> {
+    BsdfPdf { bsdf, wo: normal }
 }
 
 #[test]
 fn cosine_density_is_normalised_and_matches_its_draws() {
+    let built = light_scene(false);
     let normal = Vec3::new(0.3, 0.5, -0.8).normalize();
-    check_density("cosine", &CosinePdf::new(normal), Vec3::Y, 1.0, 10);
-    // Binned around its own normal, the histogram is the textbook cos θ / π one.
-    check_density(
-        "cosine (own frame)",
-        &CosinePdf::new(normal),
-        normal,
-        1.0,
-        11,
-    );
-}
-
-#[test]
-fn uniform_sphere_density_is_normalised_and_matches_its_draws() {
-    check_density("uniform", &UniformSpherePdf, Vec3::Z, 1.0, 12);
+    let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
+    check_pdf("cosine", &built, &lambert_pdf(&lambert, normal), 1.0, 10);
 }
 
 #[test]
 fn light_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    let lights = LightSampler::new(&built.scene);
+    let lights = lights_of(&built);
     assert_eq!(lights.len(), 3);
-    check_density("light", &light_pdf(&built, &lights), Vec3::Y, 1.0, 13);
+    let pdf = LightPdf {
+        origin: Vec3::ZERO,
+        lights: &lights,
+    };
+    check_pdf("light", &built, &pdf, 1.0, 13);
 }
 
 #[test]
 fn mixture_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    let lights = LightSampler::new(&built.scene);
-    let mixture = MixturePdf::even(
-        CosinePdf::new(Vec3::new(0.2, 1.0, 0.1).normalize()),
-        light_pdf(&built, &lights),
-    );
-    check_density("mixture", &mixture, Vec3::Y, 1.0, 14);
+    let lights = lights_of(&built);
+    let light = LightPdf {
+        origin: Vec3::ZERO,
+        lights: &lights,
+    };
+    let normal = Vec3::new(0.2, 1.0, 0.1).normalize();
+    let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
+    let mixture = MixturePdf::even(lambert_pdf(&lambert, normal), light);
+    check_pdf("mixture", &built, &mixture, 1.0, 14);
+    let sideways = Bsdf::lambert(Vec3::ONE, -Vec3::X, -Vec3::X);
     let uneven = MixturePdf {
-        first: CosinePdf::new(-Vec3::X),
-        second: light_pdf(&built, &lights),
+        first: lambert_pdf(&sideways, -Vec3::X),
+        second: light,
         weight: 0.2,
     };
-    check_density("mixture 0.2/0.8", &uneven, Vec3::Y, 1.0, 15);
+    check_pdf("mixture 0.2/0.8", &built, &uneven, 1.0, 15);
 }
 
 #[test]
 fn light_power_weighting_is_area_times_luminance() {
     let built = light_scene(false);
-    let lights = LightSampler::new(&built.scene);
+    let lights = lights_of(&built);
     // Quad: area 4, Ke 1 → 4; triangle: area 0.5, Ke 4 → 2. Densities per unit area:
     // P / A = (4/6)/4 and (2/6)/0.5.
     let quad_density = lights.area_density(0);
@@ -286,31 +187,46 @@ fn light_power_weighting_is_area_times_luminance() {
 #[test]
 fn hidden_lights_make_void_draws_and_value_still_matches() {
     let built = light_scene(true);
-    let lights = LightSampler::new(&built.scene);
-    let pdf = light_pdf(&built, &lights);
+    let lights = lights_of(&built);
+    let pdf = LightPdf {
+        origin: Vec3::ZERO,
+        lights: &lights,
+    };
     // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
-    let integral: f64 = bin_integrals(&pdf, Vec3::Y, 20, 24, 12).iter().sum();
+    let value = |dir: Vec3| {
+        let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
+        pdf.value(dir, hit.as_ref())
+    };
+    let integral: f64 = bin_integrals(&value, Vec3::Y, 20, 24, 12).iter().sum();
     assert!(
         integral < 0.95,
         "occluder and back-facing light should hide mass"
     );
-    check_density("light (occluded)", &pdf, Vec3::Y, integral, 16);
+    check_pdf("light (occluded)", &built, &pdf, integral, 16);
 }
 
 #[test]
 fn light_value_equals_the_density_of_the_draw() {
     for occluded in [false, true] {
         let built = light_scene(occluded);
-        let lights = LightSampler::new(&built.scene);
-        let pdf = light_pdf(&built, &lights);
+        let lights = lights_of(&built);
+        let pdf = LightPdf {
+            origin: Vec3::ZERO,
+            lights: &lights,
+        };
         let mut rng = Rng::seeded(17);
         let mut produced = 0;
         for _ in 0..20_000 {
-            if let Some((dir, p)) = pdf.generate_with_pdf(&mut rng) {
-                let v = pdf.value(dir);
+            let Some(sample) = lights.sample(Vec3::ZERO, &mut rng) else {
+                continue;
+            };
+            let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, sample.dir));
+            if hit.is_some_and(|h| h.prim == sample.prim) {
+                let v = pdf.value(sample.dir, hit.as_ref());
                 assert!(
-                    (v - p).abs() <= 1e-3 * p,
-                    "value {v} vs generator density {p}"
+                    (v - sample.pdf).abs() <= 1e-3 * sample.pdf,
+                    "value {v} vs generator density {}",
+                    sample.pdf
                 );
                 produced += 1;
             }
@@ -340,7 +256,7 @@ fn light_culling_never_skips_a_lit_point() {
             triangles.push((verts, 0));
         }
         let built = build(&triangles, vec![diffuse(Vec3::splat(0.5), Vec3::ONE)]);
-        let lights = LightSampler::new(&built.scene);
+        let lights = lights_of(&built);
         let mut culled = 0;
         for _ in 0..20_000 {
             let p = Vec3::new(

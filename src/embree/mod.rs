@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 
-use crate::accel::{Hit, Ray};
+use crate::geometry::{Hit, Ray};
 
 /// Embree's "no geometry" id, written into `geomID` before a query.
 const INVALID_ID: u32 = u32::MAX;

@@ -14,13 +14,9 @@
 use glam::Vec3;
 
 use super::{uniform_triangle, AliasTable, Rng};
-use crate::scene::Scene;
-
-/// Perceived brightness of linear RGB (Rec. 709 weights).
-#[inline]
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
+use crate::color::luminance;
+use crate::geometry::{barycentric_error, SurfaceOrigin};
+use crate::scene::{Material, TriangleMesh};
 
 /// The scene's emitters with a power-proportional distribution over them.
 #[derive(Clone, Debug, Default)]
@@ -63,7 +59,7 @@ impl EmitterBounds {
         let mut lo = Vec3::splat(f32::INFINITY);
         let mut hi = Vec3::splat(f32::NEG_INFINITY);
         for e in emitters {
-            for v in [e.v0, e.v0 + e.e1, e.v0 + e.e2] {
+            for v in e.vertices {
                 lo = lo.min(v);
                 hi = hi.max(v);
             }
@@ -91,12 +87,10 @@ impl EmitterBounds {
     }
 }
 
-/// One emissive triangle: `v0 + b1 e1 + b2 e2`.
+/// One emissive triangle.
 #[derive(Clone, Copy, Debug)]
 struct Emitter {
-    v0: Vec3,
-    e1: Vec3,
-    e2: Vec3,
+    vertices: [Vec3; 3],
     /// Unit normal of the emitting side (counter-clockwise winding).
     normal: Vec3,
     emission: Vec3,
@@ -112,8 +106,9 @@ pub struct LightSample {
     pub dir: Vec3,
     /// Distance from the shading point to the light point.
     pub distance: f32,
-    /// The light point itself.
-    pub point: Vec3,
+    /// The light point itself, with its rounding error and the light's normal (for
+    /// the far end of a shadow ray).
+    pub point: SurfaceOrigin,
     /// Solid-angle density with which `dir` was chosen (> 0).
     pub pdf: f32,
     /// Global triangle index of the chosen emitter.
@@ -123,27 +118,27 @@ pub struct LightSample {
 }
 
 impl LightSampler {
-    /// Builds the distribution over `scene.emitters` (O(n), once per scene).
-    pub fn new(scene: &Scene) -> Self {
-        let mut prims = scene.emitters.clone();
-        prims.sort_unstable();
-        let emission = |t: u32| scene.materials[scene.mesh.material[t as usize] as usize].emission;
+    /// Builds the distribution over the triangles of `mesh` whose material emits
+    /// (O(n), once per scene).
+    pub fn new(mesh: &TriangleMesh, materials: &[Material]) -> Self {
+        let emission = |t: u32| materials[mesh.material[t as usize] as usize].emission;
+        let prims: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&t| emission(t).max_element() > 0.0)
+            .collect();
         let weights: Vec<f32> = prims
             .iter()
-            .map(|&t| scene.mesh.area(t) * luminance(emission(t)).max(0.0))
+            .map(|&t| mesh.area(t) * luminance(emission(t)).max(0.0))
             .collect();
         let table = AliasTable::new(&weights);
         let emitters: Vec<Emitter> = prims
             .iter()
             .enumerate()
             .map(|(i, &t)| {
-                let [a, b, c] = scene.mesh.vertices(t);
-                let area = scene.mesh.area(t);
+                let [a, b, c] = mesh.vertices(t);
+                let area = mesh.area(t);
                 let probability = table.as_ref().map_or(0.0, |table| table.pmf(i));
                 Emitter {
-                    v0: a,
-                    e1: b - a,
-                    e2: c - a,
+                    vertices: [a, b, c],
                     normal: (b - a).cross(c - a).normalize_or_zero(),
                     emission: emission(t),
                     area_density: if area > 0.0 { probability / area } else { 0.0 },
@@ -224,7 +219,9 @@ impl LightSampler {
         let (i, u1) = table.sample(rng.refine(u1));
         let emitter = &self.emitters[i];
         let (b1, b2) = uniform_triangle(u1, u2);
-        let point = emitter.v0 + b1 * emitter.e1 + b2 * emitter.e2;
+        let b = [1.0 - b1 - b2, b1, b2];
+        let [v0, v1, v2] = emitter.vertices;
+        let point = b[0] * v0 + b[1] * v1 + b[2] * v2;
         let to_light = point - origin;
         let distance_squared = to_light.length_squared();
         let distance = distance_squared.sqrt();
@@ -243,7 +240,11 @@ impl LightSampler {
         Some(LightSample {
             dir,
             distance,
-            point,
+            point: SurfaceOrigin {
+                p: point,
+                error: barycentric_error(b, emitter.vertices),
+                ng: emitter.normal,
+            },
             pdf,
             prim: self.prims[i],
             emission: emitter.emission,

@@ -7,13 +7,13 @@ mod pdf;
 mod rng;
 
 pub use distribution::AliasTable;
-pub use light::{luminance, LightSample, LightSampler};
+pub use light::{LightSample, LightSampler};
 pub use onb::Onb;
-pub use pdf::{CosinePdf, LightPdf, MixturePdf, Pdf, UniformSpherePdf};
+pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
 pub use rng::Rng;
 
 use glam::Vec3;
-use std::f32::consts::{FRAC_1_PI, PI};
+use std::f32::consts::PI;
 
 /// A cosine-weighted direction in the local frame (z up): density `cos θ / π`.
 /// `u1`, `u2` are uniform in `[0, 1)`.
@@ -23,12 +23,6 @@ pub fn cosine_hemisphere(u1: f32, u2: f32) -> Vec3 {
     let r = u2.sqrt();
     let z = (1.0 - u2).max(0.0).sqrt();
     Vec3::new(phi.cos() * r, phi.sin() * r, z)
-}
-
-/// Density of [`cosine_hemisphere`] for a direction whose cosine with the normal is `cos_theta`.
-#[inline]
-pub fn cosine_hemisphere_pdf(cos_theta: f32) -> f32 {
-    cos_theta.max(0.0) * FRAC_1_PI
 }
 
 /// A uniformly distributed direction on the unit sphere: density `1 / 4π`.

@@ -1,91 +1,97 @@
-//! Probability densities over directions, as plain values: each can say how likely a
-//! direction is (`value`, per steradian) and draw one (`generate`). Combining them is
-//! static ([`MixturePdf`] is generic), so nothing is boxed or allocated per sample.
+//! Probability densities over directions, as plain values: the book's `pdf` objects
+//! (`value`, `generate`) made cheap. Each can say how likely a direction is and draw
+//! one; combining them is static ([`MixturePdf`] is generic), so nothing is boxed or
+//! allocated per sample. The `mixture` integrator samples with exactly these.
 //!
-//! `generate` may return `None`: a draw that produces no direction (a light point
-//! facing away, or hidden behind something). Such a draw counts as a sample worth zero,
-//! so `value` is the density of the directions that *are* produced, and it integrates
-//! to at most 1; an estimator `f(ω) / value(ω)` stays unbiased wherever `value > 0`.
+//! A density over directions from a surface point can depend on what a direction hits
+//! first: the light density of a direction is that of the light point it reaches,
+//! unless something is in the way. So `value` is told the direction's first hit, which
+//! the caller traces once and reuses for the path, and `generate` says which light
+//! triangle a direction was aimed at. A draw whose aimed-at triangle is not the first
+//! hit is *void*: it counts as a sample worth zero. `value` is then the density of the
+//! directions that are not void, and integrates to at most 1; an estimator
+//! `f(ω) / value(ω)` stays unbiased wherever `value > 0`.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
-use super::{cosine_hemisphere, LightSampler, Onb, Rng};
-use crate::accel::{Accel, Ray};
-use crate::scene::Scene;
-use std::f32::consts::FRAC_1_PI;
+use super::{LightSampler, Rng};
+use crate::bsdf::Bsdf;
+use crate::geometry::Hit;
 
-/// A density over unit directions.
+/// A direction drawn from a [`Pdf`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Direction {
+    /// Unit direction.
+    pub dir: Vec3,
+    /// The emitter triangle the direction was aimed at, when it must be the first hit
+    /// for the draw to count.
+    pub aimed_at: Option<u32>,
+}
+
+impl Direction {
+    /// Whether the draw counts, given the direction's first hit.
+    #[inline]
+    pub fn reached(&self, first_hit: Option<&Hit>) -> bool {
+        self.aimed_at
+            .is_none_or(|prim| first_hit.is_some_and(|h| h.prim == prim))
+    }
+}
+
+/// A density over unit directions from one point.
 pub trait Pdf {
-    /// Density (per steradian) of generating the unit direction `dir`.
-    fn value(&self, dir: Vec3) -> f32;
-    /// A unit direction drawn from this density, or `None` for a void draw.
-    fn generate(&self, rng: &mut Rng) -> Option<Vec3>;
+    /// Density (per steradian) of generating unit direction `dir`, whose first hit
+    /// from the point is `first_hit` (`None`: the ray leaves the scene).
+    fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32;
+    /// A direction drawn from this density, or `None` for a void draw.
+    fn generate(&self, rng: &mut Rng) -> Option<Direction>;
 }
 
-/// `cos θ / π` over the hemisphere around a unit normal; 0 below it.
+/// The density with which a (non-delta) BSDF samples directions for light leaving
+/// towards `wo`.
 #[derive(Clone, Copy, Debug)]
-pub struct CosinePdf {
-    frame: Onb,
+pub struct BsdfPdf<'a> {
+    pub bsdf: &'a Bsdf,
+    pub wo: Vec3,
 }
 
-impl CosinePdf {
-    pub fn new(normal: Vec3) -> Self {
-        CosinePdf {
-            frame: Onb::from_w(normal),
-        }
-    }
-
-    pub fn normal(&self) -> Vec3 {
-        self.frame.w
-    }
-}
-
-impl Pdf for CosinePdf {
+impl Pdf for BsdfPdf<'_> {
     #[inline]
-    fn value(&self, dir: Vec3) -> f32 {
-        dir.dot(self.frame.w).max(0.0) * FRAC_1_PI
+    fn value(&self, dir: Vec3, _first_hit: Option<&Hit>) -> f32 {
+        self.bsdf.pdf(self.wo, dir)
     }
 
     #[inline]
-    fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
+    fn generate(&self, rng: &mut Rng) -> Option<Direction> {
         let (u1, u2) = rng.pair();
-        Some(self.frame.to_world(cosine_hemisphere(u1, u2)))
+        let sample = self.bsdf.sample(self.wo, Vec2::new(u1, u2))?;
+        Some(Direction {
+            dir: sample.wi,
+            aimed_at: None,
+        })
     }
 }
 
 /// Directions towards points on the scene's lights, as seen from `origin` (see
-/// [`LightSampler`]). A direction counts only if the light point it was aimed at is
-/// the first thing the ray meets: `value` traces the direction through the accelerator
-/// and asks whether the triangle hit is an emitter facing `origin`; `generate` checks
-/// that the chosen point is not hidden. The two therefore describe one density even in
-/// scenes where lights are partly occluded or lie behind one another.
-pub struct LightPdf<'a, A: Accel> {
+/// [`LightSampler`]): a direction has the density of the light point it first hits.
+#[derive(Clone, Copy, Debug)]
+pub struct LightPdf<'a> {
     pub origin: Vec3,
     pub lights: &'a LightSampler,
-    pub scene: &'a Scene,
-    pub accel: &'a A,
 }
 
-impl<A: Accel> LightPdf<'_, A> {
-    /// A direction with the density the sampler used for it, or `None` for a void draw.
-    pub fn generate_with_pdf(&self, rng: &mut Rng) -> Option<(Vec3, f32)> {
+impl Pdf for LightPdf<'_> {
+    #[inline]
+    fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
+        first_hit.map_or(0.0, |hit| self.lights.pdf_hit(hit.prim, dir, hit.t))
+    }
+
+    #[inline]
+    fn generate(&self, rng: &mut Rng) -> Option<Direction> {
         let sample = self.lights.sample(self.origin, rng)?;
-        let hit = self.accel.intersect(&Ray::new(self.origin, sample.dir))?;
-        (hit.prim == sample.prim).then_some((sample.dir, sample.pdf))
-    }
-}
-
-impl<A: Accel> Pdf for LightPdf<'_, A> {
-    fn value(&self, dir: Vec3) -> f32 {
-        let dir = dir.normalize_or_zero();
-        match self.accel.intersect(&Ray::new(self.origin, dir)) {
-            Some(hit) => self.lights.pdf_hit(hit.prim, dir, hit.t),
-            None => 0.0,
-        }
-    }
-
-    fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
-        self.generate_with_pdf(rng).map(|(dir, _)| dir)
+        Some(Direction {
+            dir: sample.dir,
+            aimed_at: Some(sample.prim),
+        })
     }
 }
 
@@ -111,33 +117,17 @@ impl<P, Q> MixturePdf<P, Q> {
 
 impl<P: Pdf, Q: Pdf> Pdf for MixturePdf<P, Q> {
     #[inline]
-    fn value(&self, dir: Vec3) -> f32 {
-        self.weight * self.first.value(dir) + (1.0 - self.weight) * self.second.value(dir)
+    fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
+        self.weight * self.first.value(dir, first_hit)
+            + (1.0 - self.weight) * self.second.value(dir, first_hit)
     }
 
     #[inline]
-    fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
+    fn generate(&self, rng: &mut Rng) -> Option<Direction> {
         if rng.f32() < self.weight {
             self.first.generate(rng)
         } else {
             self.second.generate(rng)
         }
-    }
-}
-
-/// The uniform density `1 / 4π` over the whole sphere (for tests and comparisons).
-#[derive(Clone, Copy, Debug, Default)]
-pub struct UniformSpherePdf;
-
-impl Pdf for UniformSpherePdf {
-    #[inline]
-    fn value(&self, _dir: Vec3) -> f32 {
-        0.25 * FRAC_1_PI
-    }
-
-    #[inline]
-    fn generate(&self, rng: &mut Rng) -> Option<Vec3> {
-        let (u1, u2) = rng.pair();
-        Some(super::uniform_sphere(u1, u2))
     }
 }

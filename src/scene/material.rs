@@ -1,51 +1,50 @@
-//! Materials read from MTL files, and what a surface does with light that reaches it.
+//! Materials read from MTL files, and the BSDF each one has at a surface point.
 //!
-//! How MTL statements map to a material (first rule that applies):
-//! - `illum` 4, 6, 7 or 9, or `d` < 1, or `Tr` > 0: **glass** (dielectric) with index `Ni`
-//!   (1.5 when `Ni` is absent or ≤ 1).
-//! - `illum` 3 or 5, or `Ks` > 0 with a black `Kd`: **metal** with reflectance `Ks` and
-//!   roughness from the Phong exponent, `fuzz = sqrt(2 / (Ns + 2))`.
-//! - `Kd` and `Ks` both non-zero: **plastic**, a diffuse base with a glossy coat; each
-//!   scattering picks one lobe in proportion to its brightness.
-//! - otherwise **diffuse** (Lambertian) with albedo `Kd`, or `map_Kd` when given.
+//! How MTL statements map to a material: the first rule that applies, with
+//! `α = sqrt(2 / (Ns + 2))` (`Ns` absent counts as 0). The reference images depend on
+//! this table; `README.md` repeats it.
 //!
-//! Any material with `Ke` > 0 also emits `Ke` from the side its triangles' winding
-//! normal points to. Diffuse surfaces are two-sided: hit from behind, they reflect like
-//! their front.
+//! | rule | material |
+//! |---|---|
+//! | `illum` 4, 6, 7 or 9 | smooth glass, index `Ni` (1.5 if absent or ≤ 1); `Tf`, `Ns`, `Ks` ignored |
+//! | `illum` 3 or 5, or `Ks` > 0 with `Kd` = 0 and no `map_Kd` | GGX conductor, roughness α, Fresnel ≡ `Ks` |
+//! | `Kd` (or `map_Kd`) > 0 and `Ks` > 0 | Lambert `Kd·(1−Ks)` + GGX lobe, roughness α, Fresnel ≡ `Ks` |
+//! | otherwise | Lambert `Kd` (or `map_Kd`) |
+//!
+//! `Kd` and `Ks` are clamped to [0, 1] per channel, so no material reflects more light
+//! than it receives. Any material with `Ke` > 0 also emits `Ke` from the side its
+//! triangles' counter-clockwise winding faces, and still reflects with its BSDF. Every
+//! surface but glass is two-sided.
 
 use glam::{Vec2, Vec3};
 
-use crate::sampling::{luminance, uniform_sphere, Rng};
+use crate::bsdf::Bsdf;
 
-/// How a material scatters light.
+/// Which row of the mapping table a material took, with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Bsdf {
-    Diffuse,
-    Metal {
-        fuzz: f32,
-    },
-    Glass {
-        ior: f32,
-    },
-    /// Diffuse base plus a glossy coat, chosen with probability `coat_probability`.
-    Plastic {
-        fuzz: f32,
-        coat_probability: f32,
-    },
+pub enum Model {
+    /// Lambert `Kd`.
+    Lambert,
+    /// GGX reflection alone, Fresnel ≡ `Ks`.
+    Conductor { alpha: f32 },
+    /// Lambert `Kd·(1−Ks)` plus GGX reflection with Fresnel ≡ `Ks`.
+    Coated { alpha: f32 },
+    /// Smooth glass of index `ior`.
+    Glass { ior: f32 },
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
-    /// `Kd`: diffuse reflectance (linear RGB).
+    /// `Kd`: diffuse reflectance (linear RGB, in [0, 1]).
     pub diffuse: Vec3,
     /// `map_Kd`: index into the scene's textures, replacing `Kd` where present.
     pub diffuse_texture: Option<u32>,
-    /// `Ks`: specular reflectance of metal and plastic coats.
+    /// `Ks`: the Fresnel factor of the GGX lobe (linear RGB, in [0, 1]).
     pub specular: Vec3,
     /// `Ke`: emitted radiance.
     pub emission: Vec3,
-    pub bsdf: Bsdf,
+    pub model: Model,
 }
 
 impl Default for Material {
@@ -57,7 +56,7 @@ impl Default for Material {
             diffuse_texture: None,
             specular: Vec3::ZERO,
             emission: Vec3::ZERO,
-            bsdf: Bsdf::Diffuse,
+            model: Model::Lambert,
         }
     }
 }
@@ -70,36 +69,35 @@ pub struct MtlValues {
     pub ke: Option<Vec3>,
     pub ns: Option<f32>,
     pub ni: Option<f32>,
-    pub d: Option<f32>,
-    pub tr: Option<f32>,
     pub illum: Option<u8>,
 }
 
+/// GGX roughness from a Phong exponent: `sqrt(2 / (Ns + 2))`, `Ns` absent or negative
+/// counting as 0.
+pub fn alpha_from_ns(ns: Option<f32>) -> f32 {
+    (2.0 / (ns.unwrap_or(0.0).max(0.0) + 2.0)).sqrt()
+}
+
 impl Material {
-    /// Applies the mapping rules in the module documentation.
+    /// Applies the mapping table in the module documentation.
     pub fn from_mtl(name: &str, mtl: &MtlValues, diffuse_texture: Option<u32>) -> Material {
-        let kd = mtl.kd.unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
-        let ks = mtl.ks.unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
+        let unit = |c: Option<Vec3>| c.unwrap_or(Vec3::ZERO).clamp(Vec3::ZERO, Vec3::ONE);
+        let (kd, ks) = (unit(mtl.kd), unit(mtl.ks));
         let ke = mtl.ke.unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
-        let fuzz = (2.0 / (mtl.ns.unwrap_or(0.0).max(0.0) + 2.0)).sqrt();
+        let alpha = alpha_from_ns(mtl.ns);
         let illum = mtl.illum.unwrap_or(2);
-        let transparent = mtl.d.is_some_and(|d| d < 1.0) || mtl.tr.is_some_and(|t| t > 0.0);
-        let bsdf = if matches!(illum, 4 | 6 | 7 | 9) || transparent {
-            Bsdf::Glass {
+        let has_diffuse = kd.max_element() > 0.0 || diffuse_texture.is_some();
+        let has_specular = ks.max_element() > 0.0;
+        let model = if matches!(illum, 4 | 6 | 7 | 9) {
+            Model::Glass {
                 ior: mtl.ni.filter(|&n| n > 1.0).unwrap_or(1.5),
             }
-        } else if matches!(illum, 3 | 5)
-            || (ks.max_element() > 0.0 && kd.max_element() == 0.0 && diffuse_texture.is_none())
-        {
-            Bsdf::Metal { fuzz }
-        } else if ks.max_element() > 0.0 && (kd.max_element() > 0.0 || diffuse_texture.is_some()) {
-            let (coat, base) = (luminance(ks), luminance(kd).max(1e-3));
-            Bsdf::Plastic {
-                fuzz,
-                coat_probability: (coat / (coat + base)).clamp(0.05, 0.95),
-            }
+        } else if matches!(illum, 3 | 5) || (has_specular && !has_diffuse) {
+            Model::Conductor { alpha }
+        } else if has_diffuse && has_specular {
+            Model::Coated { alpha }
         } else {
-            Bsdf::Diffuse
+            Model::Lambert
         };
         Material {
             name: name.to_owned(),
@@ -107,106 +105,31 @@ impl Material {
             diffuse_texture,
             specular: ks,
             emission: ke,
-            bsdf,
+            model,
         }
     }
 
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
     }
-}
 
-/// What happens to light arriving along `-wo` at a surface, decided by one random draw.
-#[derive(Clone, Copy, Debug)]
-pub enum Scatter {
-    /// A Lambertian lobe with this albedo around the shading normal `normal` (facing
-    /// the incoming ray). The integrator chooses how to sample it (cosine, lights, …).
-    Diffuse { albedo: Vec3, normal: Vec3 },
-    /// A specular (delta or fuzzy) bounce: continue along `dir` with `weight`
-    /// (BSDF × cosine / probability, already divided out). Bypasses the PDFs.
-    Specular { dir: Vec3, weight: Vec3 },
-}
-
-/// Reflects `d` about the unit normal `n`.
-#[inline]
-fn reflect(d: Vec3, n: Vec3) -> Vec3 {
-    d - 2.0 * d.dot(n) * n
-}
-
-/// Schlick's approximation to the Fresnel reflectance.
-#[inline]
-fn schlick(cos: f32, eta_ratio: f32) -> f32 {
-    let r0 = ((1.0 - eta_ratio) / (1.0 + eta_ratio)).powi(2);
-    r0 + (1.0 - r0) * (1.0 - cos).powi(5)
-}
-
-/// A mirror direction roughened by `fuzz` as in "Ray Tracing in One Weekend", pushed
-/// back above the surface if the roughening sent it below.
-fn fuzzy_reflection(dir: Vec3, normal: Vec3, fuzz: f32, rng: &mut Rng) -> Vec3 {
-    let mirrored = reflect(dir, normal);
-    if fuzz <= 0.0 {
-        return mirrored;
-    }
-    let (u1, u2) = rng.pair();
-    let jitter = uniform_sphere(u1, u2) * rng.f32().cbrt();
-    let out = (mirrored + fuzz * jitter).normalize_or_zero();
-    if out.dot(normal) > 1e-4 {
-        out
-    } else {
-        mirrored
-    }
-}
-
-impl Material {
-    /// Chooses how light scatters at a surface hit by a ray travelling along unit `dir`.
-    /// `ng`/`ns` are the unit geometric and shading normals (same side); `albedo` is the
-    /// (possibly textured) diffuse reflectance there.
-    pub fn scatter(&self, dir: Vec3, ng: Vec3, ns: Vec3, albedo: Vec3, rng: &mut Rng) -> Scatter {
-        let front = dir.dot(ng) < 0.0;
-        // Shading normal on the side the ray came from (two-sided surfaces).
-        let facing = if front { ns } else { -ns };
-        match self.bsdf {
-            Bsdf::Diffuse => Scatter::Diffuse {
-                albedo,
-                normal: facing,
-            },
-            Bsdf::Metal { fuzz } => Scatter::Specular {
-                dir: fuzzy_reflection(dir, facing, fuzz, rng),
-                weight: self.specular,
-            },
-            Bsdf::Plastic {
-                fuzz,
-                coat_probability,
-            } => {
-                if rng.f32() < coat_probability {
-                    Scatter::Specular {
-                        dir: fuzzy_reflection(dir, facing, fuzz, rng),
-                        weight: self.specular / coat_probability,
-                    }
-                } else {
-                    Scatter::Diffuse {
-                        albedo: albedo / (1.0 - coat_probability),
-                        normal: facing,
-                    }
-                }
+    /// The BSDF at a surface point whose diffuse reflectance (`Kd` or its texture) is
+    /// `albedo`, with unit shading normal `ns` and geometric normal `ng` on one side.
+    #[inline]
+    pub fn bsdf(&self, albedo: Vec3, ns: Vec3, ng: Vec3) -> Bsdf {
+        match self.model {
+            Model::Lambert => Bsdf::lambert(albedo, ns, ng),
+            Model::Conductor { alpha } => Bsdf::glossy(Vec3::ZERO, self.specular, alpha, ns, ng),
+            Model::Coated { alpha } => {
+                Bsdf::glossy(albedo * (1.0 - self.specular), self.specular, alpha, ns, ng)
             }
-            Bsdf::Glass { ior } => {
-                let eta_ratio = if front { 1.0 / ior } else { ior };
-                let cos_i = (-dir).dot(facing).min(1.0);
-                let sin_t2 = eta_ratio * eta_ratio * (1.0 - cos_i * cos_i);
-                let reflect_it = sin_t2 > 1.0 || rng.f32() < schlick(cos_i, eta_ratio);
-                let out = if reflect_it {
-                    reflect(dir, facing)
-                } else {
-                    let perp = eta_ratio * (dir + cos_i * facing);
-                    perp - (1.0 - sin_t2).max(0.0).sqrt() * facing
-                };
-                Scatter::Specular {
-                    dir: out.normalize(),
-                    weight: Vec3::ONE,
-                }
-            }
+            Model::Glass { ior } => Bsdf::dielectric(ior, ns, ng),
         }
+    }
+
+    /// Whether the diffuse reflectance is read at all (glass and conductors ignore it).
+    pub fn uses_albedo(&self) -> bool {
+        matches!(self.model, Model::Lambert | Model::Coated { .. })
     }
 }
 

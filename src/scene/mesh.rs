@@ -3,7 +3,7 @@
 
 use glam::{Vec2, Vec3};
 
-use crate::accel::Hit;
+use crate::geometry::{barycentric_error, Hit, SurfaceOrigin};
 
 /// All triangles of a scene with their per-vertex attributes.
 #[derive(Clone, Debug, Default)]
@@ -34,12 +34,26 @@ pub fn triangle_bounds(positions: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec
 #[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint {
     pub p: Vec3,
+    /// Per-axis bound on the rounding error of `p`.
+    pub error: Vec3,
     /// Unit geometric normal from the counter-clockwise winding (the emitting side).
     pub ng: Vec3,
     /// Unit shading normal, on the same side of the surface as `ng`.
     pub ns: Vec3,
     pub uv: Vec2,
     pub material: u32,
+}
+
+impl SurfacePoint {
+    /// Where rays leaving this point start from (see [`SurfaceOrigin`]).
+    #[inline]
+    pub fn origin(&self) -> SurfaceOrigin {
+        SurfaceOrigin {
+            p: self.p,
+            error: self.error,
+            ng: self.ng,
+        }
+    }
 }
 
 impl TriangleMesh {
@@ -90,6 +104,7 @@ impl TriangleMesh {
         };
         SurfacePoint {
             p,
+            error: barycentric_error([w, u, v], [a, b, c]),
             ng,
             ns,
             uv,

@@ -7,7 +7,7 @@ mod mesh;
 mod obj;
 
 pub use camera::{Camera, CameraSettings};
-pub use material::{Bsdf, Material, MtlValues, Scatter, Texture};
+pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
@@ -15,6 +15,8 @@ pub use obj::{
 
 use glam::Vec3;
 use std::path::PathBuf;
+
+use crate::bsdf::Bsdf;
 
 /// Why a scene could not be loaded. Each message is one line that names the file.
 #[derive(Debug, thiserror::Error)]
@@ -85,13 +87,28 @@ impl Scene {
         &self.materials[surface.material as usize]
     }
 
-    /// The diffuse reflectance at a surface point (texture lookup where there is one).
+    /// The diffuse reflectance at a surface point (texture lookup where there is one),
+    /// clamped to [0, 1] like `Kd`.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
         match material.diffuse_texture {
-            Some(t) => self.textures[t as usize].sample(surface.uv),
+            Some(t) => self.textures[t as usize]
+                .sample(surface.uv)
+                .clamp(Vec3::ZERO, Vec3::ONE),
             None => material.diffuse,
         }
+    }
+
+    /// The BSDF of the surface at a hit point.
+    #[inline]
+    pub fn bsdf(&self, surface: &SurfacePoint) -> Bsdf {
+        let material = self.material(surface);
+        let albedo = if material.uses_albedo() {
+            self.albedo(surface)
+        } else {
+            Vec3::ZERO
+        };
+        material.bsdf(albedo, surface.ns, surface.ng)
     }
 
     pub fn bounds(&self) -> (Vec3, Vec3) {

@@ -347,13 +347,18 @@ fn load_obj_text(
             ke: m.emissive.map(vec3),
             ns: m.shininess,
             ni: m.optical_density,
-            d: m.dissolve,
-            tr: m
-                .unknown_param
-                .get("Tr")
-                .and_then(|t| t.trim().parse().ok()),
             illum: m.illumination_model,
         };
+        let tr: Option<f32> = m
+            .unknown_param
+            .get("Tr")
+            .and_then(|t| t.trim().parse().ok());
+        if m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0) {
+            report.warnings.push(format!(
+                "material {:?}: opacity (`d`/`Tr`) is not supported yet and is ignored: the surface renders opaque",
+                m.name
+            ));
+        }
         let check = [values.kd, values.ks, values.ke]
             .into_iter()
             .flatten()

@@ -1,6 +1,8 @@
 //! Scenes built in code for the sampling and integrator tests.
 #![allow(dead_code)]
 
+pub mod stats;
+
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
 use ember::scene::{Material, Scene, TriangleMesh};

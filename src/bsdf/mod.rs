@@ -1,0 +1,307 @@
+//! What a surface does with light: the BSDF at one surface point, which can be sampled
+//! *and* evaluated, so that light sampling, the book's mixture and MIS work at every
+//! vertex that is not a perfect mirror or smooth glass.
+//!
+//! One interface for every material ([`Bsdf`]):
+//! - [`sample`](Bsdf::sample)`(wo, u)`: a direction `wi`, its value, its density and
+//!   whether the lobe is a delta;
+//! - [`eval`](Bsdf::eval)`(wo, wi)`: the value;
+//! - [`pdf`](Bsdf::pdf)`(wo, wi)`: the density per steradian with which `sample`
+//!   draws `wi`.
+//!
+//! The *value* is `f(wo, wi) · |cos θi|` (shading normal): the factor by which radiance
+//! arriving along `-wi` is scattered towards `wo`. Integrators multiply by it and
+//! divide by a density; they know nothing else of a material. Directions are unit
+//! world vectors pointing away from the surface.
+//!
+//! A delta lobe (a mirror, smooth glass) reflects or refracts into one direction: its
+//! `eval` and `pdf` are 0 for any given pair of directions, and `sample` returns the
+//! weight as `value / pdf`, where `pdf` is the probability of the discrete choice.
+//! A BSDF is either wholly delta or has no delta part (see [`Bsdf::glossy`]).
+
+mod dielectric;
+mod microfacet;
+
+pub use dielectric::{fresnel_dielectric, refract};
+pub use microfacet::{reflect, Ggx};
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::FRAC_1_PI;
+
+use crate::color::luminance;
+use crate::sampling::{cosine_hemisphere, Onb};
+
+/// Below this roughness a GGX conductor is treated as a perfect mirror (a delta lobe):
+/// its lobe is narrower than anything sampling could resolve.
+pub const DELTA_ALPHA: f32 = 1e-3;
+
+/// A direction drawn from a [`Bsdf`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BsdfSample {
+    /// Unit direction the light comes from (pointing away from the surface).
+    pub wi: Vec3,
+    /// `f · |cos θi|` (for a delta lobe, the lobe's weight times the choice's
+    /// probability, so that `value / pdf` is the path weight).
+    pub value: Vec3,
+    /// Density per steradian of `wi` (for a delta lobe, the probability of choosing it).
+    pub pdf: f32,
+    /// Whether the direction came from a delta lobe.
+    pub delta: bool,
+    /// Relative index of refraction `η_t / η_i` crossed by a refraction, 1 otherwise.
+    pub eta: f32,
+}
+
+impl BsdfSample {
+    /// `value / pdf`: what a path's throughput is multiplied by.
+    #[inline]
+    pub fn weight(&self) -> Vec3 {
+        self.value / self.pdf
+    }
+}
+
+/// The scattering functions a BSDF combines.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Lobes {
+    /// Lambert with albedo `diffuse` plus GGX reflection with constant Fresnel
+    /// `specular` (either may be black). Two-sided. `sample` draws the GGX lobe with
+    /// probability `glossy_probability`, the cosine lobe otherwise.
+    Reflective {
+        diffuse: Vec3,
+        specular: Vec3,
+        ggx: Ggx,
+        glossy_probability: f32,
+    },
+    /// A perfect mirror of reflectance `reflectance`. Two-sided.
+    Mirror { reflectance: Vec3 },
+    /// Smooth glass of index `ior` inside (the side opposite the normal), 1 outside.
+    Dielectric { ior: f32 },
+}
+
+/// The BSDF at one surface point: its lobes in the frame of the shading normal.
+#[derive(Clone, Copy, Debug)]
+pub struct Bsdf {
+    /// Around the unit shading normal, which lies on the side of `ng`.
+    frame: Onb,
+    /// Unit geometric normal: decides which side of a two-sided surface light is on,
+    /// so that shading normals never let light through a reflective surface.
+    ng: Vec3,
+    lobes: Lobes,
+}
+
+impl Bsdf {
+    /// A Lambertian surface of albedo `albedo`.
+    pub fn lambert(albedo: Vec3, ns: Vec3, ng: Vec3) -> Bsdf {
+        Bsdf::glossy(albedo, Vec3::ZERO, 1.0, ns, ng)
+    }
+
+    /// Lambert `diffuse` plus a GGX lobe of roughness `alpha` with Fresnel ≡
+    /// `specular`. A GGX lobe alone (a conductor) narrower than [`DELTA_ALPHA`] is a
+    /// mirror. Beside a diffuse lobe it stays GGX at α = [`DELTA_ALPHA`] instead, so
+    /// that a BSDF is never part delta: light sampling and the mixture density then
+    /// apply to all of it.
+    pub fn glossy(diffuse: Vec3, specular: Vec3, alpha: f32, ns: Vec3, ng: Vec3) -> Bsdf {
+        let has_diffuse = diffuse.max_element() > 0.0;
+        let has_specular = specular.max_element() > 0.0;
+        let lobes = if has_specular && !has_diffuse && alpha < DELTA_ALPHA {
+            Lobes::Mirror {
+                reflectance: specular,
+            }
+        } else {
+            let glossy_probability = match (has_diffuse, has_specular) {
+                (_, false) => 0.0,
+                (false, true) => 1.0,
+                (true, true) => {
+                    let (s, d) = (luminance(specular), luminance(diffuse));
+                    (s / (s + d)).clamp(0.1, 0.9)
+                }
+            };
+            Lobes::Reflective {
+                diffuse,
+                specular,
+                ggx: Ggx::new(alpha.max(DELTA_ALPHA)),
+                glossy_probability,
+            }
+        };
+        Bsdf::with_lobes(lobes, ns, ng)
+    }
+
+    /// Smooth glass of index `ior` on the side opposite the normals.
+    pub fn dielectric(ior: f32, ns: Vec3, ng: Vec3) -> Bsdf {
+        Bsdf::with_lobes(Lobes::Dielectric { ior }, ns, ng)
+    }
+
+    fn with_lobes(lobes: Lobes, ns: Vec3, ng: Vec3) -> Bsdf {
+        Bsdf {
+            frame: Onb::from_w(ns),
+            ng,
+            lobes,
+        }
+    }
+
+    /// Whether every direction `sample` returns comes from a delta lobe (then `eval`
+    /// and `pdf` are 0 everywhere and light sampling is pointless).
+    #[inline]
+    pub fn is_delta(&self) -> bool {
+        !matches!(self.lobes, Lobes::Reflective { .. })
+    }
+
+    /// A direction for light arriving towards `wo`, drawn from two uniforms in
+    /// `[0, 1)`; `None` when the draw yields nothing (a direction below the surface).
+    #[inline]
+    pub fn sample(&self, wo: Vec3, u: Vec2) -> Option<BsdfSample> {
+        match self.lobes {
+            Lobes::Reflective {
+                ggx,
+                glossy_probability,
+                ..
+            } => {
+                let (flip, wo_local) = self.reflective_frame(wo)?;
+                let wi_local = if u.x < glossy_probability {
+                    let u = Vec2::new(u.x / glossy_probability, u.y);
+                    reflect(wo_local, ggx.sample_visible_normal(wo_local, u))
+                } else {
+                    let u1 = (u.x - glossy_probability) / (1.0 - glossy_probability);
+                    cosine_hemisphere(u1.min(ONE_BELOW), u.y)
+                };
+                let wi = self.to_world(wi_local, flip);
+                let (value, pdf) = self.eval_pdf(wo, wi);
+                (pdf > 0.0).then_some(BsdfSample {
+                    wi,
+                    value,
+                    pdf,
+                    delta: false,
+                    eta: 1.0,
+                })
+            }
+            Lobes::Mirror { reflectance } => {
+                let (flip, wo_local) = self.reflective_frame(wo)?;
+                let wi = self.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), flip);
+                self.same_side(wo, wi).then_some(BsdfSample {
+                    wi,
+                    value: reflectance,
+                    pdf: 1.0,
+                    delta: true,
+                    eta: 1.0,
+                })
+            }
+            Lobes::Dielectric { ior } => self.sample_dielectric(ior, wo, u.x),
+        }
+    }
+
+    /// `f(wo, wi) · |cos θi|` (0 for delta lobes).
+    #[inline]
+    pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
+        self.eval_pdf(wo, wi).0
+    }
+
+    /// Density per steradian with which [`sample`](Self::sample) draws `wi` for `wo`
+    /// (0 for delta lobes).
+    #[inline]
+    pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+        self.eval_pdf(wo, wi).1
+    }
+
+    /// [`eval`](Self::eval) and [`pdf`](Self::pdf) at once, sharing the frame change.
+    #[inline]
+    pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
+        let Lobes::Reflective {
+            diffuse,
+            specular,
+            ggx,
+            glossy_probability,
+        } = self.lobes
+        else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let Some((flip, wo_local)) = self.reflective_frame(wo) else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let wi_local = self.to_local(wi, flip);
+        if wi_local.z <= 0.0 || !self.same_side(wo, wi) {
+            return (Vec3::ZERO, 0.0);
+        }
+        let cosine = wi_local.z * FRAC_1_PI;
+        let mut value = diffuse * cosine;
+        let mut pdf = (1.0 - glossy_probability) * cosine;
+        if glossy_probability > 0.0 {
+            value += specular * ggx.reflectance_cos(wo_local, wi_local);
+            pdf += glossy_probability * ggx.pdf(wo_local, wi_local);
+        }
+        (value, pdf)
+    }
+
+    /// For a two-sided reflective surface: whether `wo` is behind the geometric normal
+    /// (the lobes then mirror to that side), and `wo` in that side's local frame.
+    /// `None` when `wo` is on one side of the geometric surface and the other of the
+    /// shading normal: no reflection is defined there.
+    #[inline]
+    fn reflective_frame(&self, wo: Vec3) -> Option<(bool, Vec3)> {
+        let flip = wo.dot(self.ng) < 0.0;
+        let local = self.to_local(wo, flip);
+        (local.z > 0.0).then_some((flip, local))
+    }
+
+    #[inline]
+    fn to_local(&self, w: Vec3, flip: bool) -> Vec3 {
+        let l = self.frame.to_local(w);
+        if flip {
+            Vec3::new(l.x, l.y, -l.z)
+        } else {
+            l
+        }
+    }
+
+    #[inline]
+    fn to_world(&self, l: Vec3, flip: bool) -> Vec3 {
+        let z = if flip { -l.z } else { l.z };
+        self.frame.to_world(Vec3::new(l.x, l.y, z))
+    }
+
+    #[inline]
+    fn same_side(&self, wo: Vec3, wi: Vec3) -> bool {
+        wo.dot(self.ng) * wi.dot(self.ng) > 0.0
+    }
+
+    /// Reflection with probability `F` (exact Fresnel), refraction otherwise, each with
+    /// weight 1 on the path, times `(η_i/η_t)²` on refraction: radiance is compressed
+    /// into a smaller solid angle on entering a denser medium.
+    fn sample_dielectric(&self, ior: f32, wo: Vec3, coin: f32) -> Option<BsdfSample> {
+        let ns = self.frame.w;
+        let cos_o = wo.dot(ns);
+        if cos_o == 0.0 || !cos_o.is_finite() {
+            return None;
+        }
+        // Arriving from the side the normal points to means entering the glass.
+        let (n, eta) = if cos_o > 0.0 {
+            (ns, ior)
+        } else {
+            (-ns, 1.0 / ior)
+        };
+        let cos_i = cos_o.abs();
+        let f = fresnel_dielectric(cos_i, eta);
+        let refracted = if coin < f {
+            None
+        } else {
+            refract(wo, n, cos_i, eta)
+        };
+        Some(match refracted {
+            None => BsdfSample {
+                wi: reflect(wo, n),
+                value: Vec3::splat(f),
+                pdf: f,
+                delta: true,
+                eta: 1.0,
+            },
+            Some(wi) => BsdfSample {
+                wi,
+                value: Vec3::splat((1.0 - f) / (eta * eta)),
+                pdf: 1.0 - f,
+                delta: true,
+                eta,
+            },
+        })
+    }
+}
+
+/// The largest `f32` below 1: rescaled uniforms can round up to 1.0.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
