@@ -190,6 +190,7 @@ fn best_plane(bins: &SpatialBins, bounds: Aabb) -> Option<(usize, f32)> {
     }
     let mut best: Option<(usize, f32)> = None;
     let (mut box_l, mut n_l) = (Aabb::EMPTY, 0u32);
+    #[allow(clippy::needless_range_loop)] // `k` indexes two arrays at offsets
     for k in 1..SPATIAL_BINS {
         box_l = box_l.union(bins.boxes[k - 1]);
         n_l += bins.enter[k - 1];
@@ -198,7 +199,7 @@ fn best_plane(bins: &SpatialBins, bounds: Aabb) -> Option<(usize, f32)> {
         }
         let cost =
             TRAVERSAL_COST + (box_l.half_area() * blocks(n_l as usize) + right_cost[k]) * inv_area;
-        if best.map_or(true, |(_, c)| cost < c) {
+        if best.is_none_or(|(_, c)| cost < c) {
             best = Some((k, cost));
         }
     }
