@@ -9,7 +9,7 @@ mod common;
 use std::f64::consts::PI;
 
 use common::stats::{check_density, monte_carlo, Binning, Density};
-use ember::bsdf::{fresnel_dielectric, Bsdf, Ggx};
+use ember::bsdf::{fresnel_dielectric, Bsdf};
 use ember::sampling::{uniform_sphere, Onb, Rng};
 use glam::{DVec3, Vec2, Vec3};
 

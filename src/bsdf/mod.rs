@@ -163,7 +163,7 @@ impl Bsdf {
                     let u1 = (u.x - glossy_probability) / (1.0 - glossy_probability);
                     cosine_hemisphere(u1.min(ONE_BELOW), u.y)
                 };
-                let wi = self.to_world(wi_local, flip);
+                let wi = self.world(wi_local, flip);
                 let (value, pdf) = self.eval_pdf(wo, wi);
                 (pdf > 0.0).then_some(BsdfSample {
                     wi,
@@ -175,7 +175,7 @@ impl Bsdf {
             }
             Lobes::Mirror { reflectance } => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
-                let wi = self.to_world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), flip);
+                let wi = self.world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), flip);
                 self.same_side(wo, wi).then_some(BsdfSample {
                     wi,
                     value: reflectance,
@@ -216,7 +216,7 @@ impl Bsdf {
         let Some((flip, wo_local)) = self.reflective_frame(wo) else {
             return (Vec3::ZERO, 0.0);
         };
-        let wi_local = self.to_local(wi, flip);
+        let wi_local = self.local(wi, flip);
         if wi_local.z <= 0.0 || !self.same_side(wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
@@ -237,12 +237,12 @@ impl Bsdf {
     #[inline]
     fn reflective_frame(&self, wo: Vec3) -> Option<(bool, Vec3)> {
         let flip = wo.dot(self.ng) < 0.0;
-        let local = self.to_local(wo, flip);
+        let local = self.local(wo, flip);
         (local.z > 0.0).then_some((flip, local))
     }
 
     #[inline]
-    fn to_local(&self, w: Vec3, flip: bool) -> Vec3 {
+    fn local(&self, w: Vec3, flip: bool) -> Vec3 {
         let l = self.frame.to_local(w);
         if flip {
             Vec3::new(l.x, l.y, -l.z)
@@ -252,7 +252,7 @@ impl Bsdf {
     }
 
     #[inline]
-    fn to_world(&self, l: Vec3, flip: bool) -> Vec3 {
+    fn world(&self, l: Vec3, flip: bool) -> Vec3 {
         let z = if flip { -l.z } else { l.z };
         self.frame.to_world(Vec3::new(l.x, l.y, z))
     }

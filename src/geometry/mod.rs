@@ -119,21 +119,42 @@ impl SurfaceOrigin {
 /// Fraction of a shadow segment left out at its far end.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
-/// `x` moved one ulp further in the direction of `offset`'s sign (unchanged for 0).
+/// `x` moved one ulp further in the direction of `offset`'s sign (unchanged for 0),
+/// as `f32::next_up`/`next_down` do (not used: they need Rust 1.86).
 #[inline]
 fn round_away(x: f32, offset: f32) -> f32 {
-    if offset > 0.0 {
-        x.next_up()
-    } else if offset < 0.0 {
-        x.next_down()
+    if offset == 0.0 || !x.is_finite() {
+        return x;
+    }
+    if x == 0.0 {
+        return f32::from_bits(1).copysign(offset);
+    }
+    // Away from zero is one more in the bits; towards zero, one less.
+    let bits = x.to_bits();
+    if (offset > 0.0) == (x > 0.0) {
+        f32::from_bits(bits + 1)
     } else {
-        x
+        f32::from_bits(bits - 1)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn round_away_moves_one_ulp() {
+        for x in [1.0f32, -1.0, 3.5e4, -2.5e-3, 1e-30] {
+            let up = round_away(x, 1.0);
+            let down = round_away(x, -1.0);
+            assert!(up > x && down < x, "{x}");
+            // One ulp: no f32 lies strictly between.
+            let ulp = f64::from(x).abs() * f64::from(f32::EPSILON);
+            assert!(f64::from(up) - f64::from(x) <= ulp && f64::from(x) - f64::from(down) <= ulp);
+            assert_eq!(round_away(x, 0.0), x);
+        }
+        assert!(round_away(0.0, 1.0) > 0.0 && round_away(0.0, -1.0) < 0.0);
+    }
 
     /// A point on a tilted triangle far from the origin: rays spawned off it, either
     /// way, start strictly on their own side of the exact plane, however far out.

@@ -149,7 +149,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             // possibly small weight can end the path, which would make fireflies.
             if segment >= ROULETTE_START_VERTEX {
                 let survive = (throughput * eta_scale).max_element().min(0.95);
-                if !(rng.f32() < survive) {
+                if rng.f32() >= survive || survive.is_nan() {
                     break;
                 }
                 throughput /= survive;
@@ -310,7 +310,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return None;
         }
         let density = mixture.value(drawn.dir, next.as_ref());
-        if !(density > 0.0) {
+        if density.is_nan() || density <= 0.0 {
             return None;
         }
         Some(Step {

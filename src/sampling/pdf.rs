@@ -32,8 +32,10 @@ impl Direction {
     /// Whether the draw counts, given the direction's first hit.
     #[inline]
     pub fn reached(&self, first_hit: Option<&Hit>) -> bool {
-        self.aimed_at
-            .is_none_or(|prim| first_hit.is_some_and(|h| h.prim == prim))
+        match self.aimed_at {
+            None => true,
+            Some(prim) => first_hit.is_some_and(|h| h.prim == prim),
+        }
     }
 }
 
