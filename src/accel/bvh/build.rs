@@ -228,7 +228,7 @@ fn best_split<const N: usize>(
                 + (box_l.half_area() * blocks(n_l as usize * stride) + right_cost[split])
                     * inv_area;
             // Strictly cheaper: on equal costs the first axis and lowest bin stay.
-            if best.is_none_or(|b| cost < b.cost) {
+            if best.map_or(true, |b| cost < b.cost) {
                 best = Some(ObjectSplit {
                     axis,
                     bins_left: split,
