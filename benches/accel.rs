@@ -8,28 +8,29 @@ use std::path::Path;
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
 use ember::accel::{Accel, Bvh, EmbreeAccel, Ray};
-use ember::bench::{BenchMesh, RaySets};
 use ember::embree::{BuildQuality, Device};
-use ember::scene::{load_obj, Procedural};
+
+// The benchmark's meshes and ray sets live in the binary (src/cli/bench/), not in the
+// library; they are written to be included by path.
+#[allow(dead_code, unused_imports)]
+#[path = "../src/cli/bench/mesh.rs"]
+mod mesh;
+#[allow(dead_code, unused_imports)]
+#[path = "../src/cli/bench/procedural.rs"]
+mod procedural;
+#[allow(dead_code, unused_imports)]
+#[path = "../src/cli/bench/rays.rs"]
+mod rays;
+
+use mesh::BenchMesh;
+use rays::RaySets;
 
 const RAYS: usize = 4096;
 
 fn meshes() -> Vec<BenchMesh> {
-    let (positions, triangles) = "sphere:20k".parse::<Procedural>().unwrap().generate(1);
-    let sphere = BenchMesh {
-        name: "sphere-20k".into(),
-        positions,
-        triangles,
-        lights: Vec::new(),
-    };
+    let sphere = BenchMesh::procedural("sphere:20k".parse().unwrap(), 1);
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes/CornellBox-Original.obj");
-    let (scene, _) = load_obj(&path).expect("the Cornell box ships with ember");
-    let cornell = BenchMesh {
-        name: "cornell".into(),
-        positions: scene.mesh.positions,
-        triangles: scene.mesh.triangles,
-        lights: scene.emitters,
-    };
+    let cornell = BenchMesh::from_obj(&path).expect("the Cornell box ships with ember");
     vec![sphere, cornell]
 }
 
@@ -48,7 +49,7 @@ fn accel(c: &mut Criterion) {
         .build()
         .unwrap();
     for mesh in meshes() {
-        let (v, t) = (&mesh.positions, &mesh.triangles);
+        let (v, t) = (mesh.positions(), mesh.triangles());
         let mut build = c.benchmark_group(format!("build/{}", mesh.name));
         build.sample_size(20);
         build.bench_function("embree-medium", |b| {

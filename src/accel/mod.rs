@@ -3,8 +3,6 @@
 
 pub mod bvh;
 mod embree;
-#[cfg(feature = "peers")]
-pub mod peers;
 
 pub use self::bvh::{Bvh, BvhError};
 pub use self::embree::EmbreeAccel;

@@ -1,5 +1,30 @@
 //! `ember bench`: Embree against the native BVH (and, with the `peers` feature, the
-//! published Rust BVH crates) on the same meshes and the same rays.
+//! published Rust BVH crates) on the same meshes and the same rays. Measures build time,
+//! memory and rays per second for coherent primary rays, incoherent diffuse bounces and
+//! shadow rays, on one thread and on several, through the single-ray and the 8-ray
+//! packet API.
+//!
+//! The benchmark is part of the binary, not of the renderer library: the library
+//! gives it the backends, and these modules do the rest. They name the library as
+//! `ember::` and each other as `super::`, so the Criterion benchmark and the tests can
+//! include the meshes and ray sets by path.
+//!
+//! - [`procedural`]: procedural meshes of any size (sphere, soup);
+//! - [`mesh`]: the mesh measured on (from an OBJ or procedural);
+//! - [`rays`]: the primary, diffuse and shadow ray sets;
+//! - [`timing`]: best-of-N timing and throughput on a thread pool;
+//! - [`measure`]: the builds and traversals of one mesh;
+//! - [`report`]: the measurements, as a table and as JSON;
+//! - `peers` (feature `peers`): the published BVH crates behind `ember::accel::Accel`.
+
+mod measure;
+mod mesh;
+#[cfg(feature = "peers")]
+mod peers;
+mod procedural;
+mod rays;
+mod report;
+mod timing;
 
 use std::path::{Path, PathBuf};
 
@@ -8,10 +33,12 @@ use clap::Args;
 use glam::Vec3;
 
 use super::parse_vec3;
-use ember::bench::{self, BenchMesh, BenchOptions};
 use ember::embree::Device;
 use ember::io;
-use ember::scene::{CameraSettings, Procedural};
+use ember::scene::CameraSettings;
+use measure::BenchOptions;
+use mesh::BenchMesh;
+use procedural::Procedural;
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -117,16 +144,16 @@ pub fn run(args: BenchArgs) -> Result<()> {
         eprintln!(
             "benchmarking {}: {} triangles",
             mesh.name,
-            mesh.triangles.len()
+            mesh.triangles().len()
         );
-        let measured = bench::run(&mesh, &options)
+        let measured = measure::run(&mesh, &options)
             .with_context(|| format!("benchmark of {} failed", mesh.name))?;
         results.extend(measured);
     }
 
-    let table = bench::table(&results);
+    let table = report::table(&results);
     let version = Device::new("")?.info().version;
-    let json = serde_json::to_string_pretty(&bench::to_json(&results, &options, &version))?;
+    let json = serde_json::to_string_pretty(&report::to_json(&results, &options, &version))?;
     if let Some(path) = &args.json_out {
         io::write_atomically(path, json.as_bytes())?;
     }

@@ -5,7 +5,7 @@
 //! wrapper costs per ray (conversion, the validity check, building the `Hit`).
 
 use super::{embree_accepts, empty_hit, raw_ray, sys, Scene, INVALID_ID};
-use crate::accel::Ray;
+use crate::geometry::Ray;
 
 /// One ray in Embree's layout, ready to be copied into a query.
 #[derive(Clone, Copy)]

@@ -20,7 +20,7 @@ use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 
-use crate::accel::{Hit, Ray};
+use crate::geometry::{Hit, Ray};
 
 /// Embree's "no geometry" id, written into `geomID` before a query.
 const INVALID_ID: u32 = u32::MAX;
@@ -289,110 +289,177 @@ impl Device {
     }
 
     /// Builds and commits a scene of one triangle mesh. Triangle `i` of `triangles`
-    /// is primitive `i` in every hit.
+    /// is primitive `i` in every hit. The scene is robust
+    /// (`RTC_SCENE_FLAG_ROBUST`): rays do not slip between triangles that share an
+    /// edge, as with the native BVH's watertight test, so the two backends agree there.
     pub fn build_triangle_scene(
         &self,
         vertices: &[Vec3],
         triangles: &[[u32; 3]],
         quality: BuildQuality,
     ) -> Result<Scene, EmbreeError> {
-        let invalid = |message: String| EmbreeError {
-            kind: EmbreeErrorKind::InvalidArgument,
-            message,
-        };
-        if triangles.is_empty() {
-            return Err(invalid("a scene needs at least one triangle".into()));
-        }
-        if let Some(bad) = triangles
-            .iter()
-            .flatten()
-            .find(|&&i| i as usize >= vertices.len())
-        {
-            return Err(invalid(format!(
-                "vertex index {bad} out of range for {} vertices",
-                vertices.len()
-            )));
-        }
-        // Refuse buffers past the memory limit here rather than let Embree's monitor do
-        // it: Embree 3.13.5 leaks a device reference when a buffer allocation fails
-        // inside `rtcSetNewGeometryBuffer` (seen under valgrind), while a refusal during
-        // the BVH build (below, in `rtcCommitScene`) cleans up fully.
-        let buffer_bytes = (vertices.len() * 12 + 16 + triangles.len() * 12) as i64;
-        let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
-        if (self.bytes_in_use() as i64).saturating_add(buffer_bytes) > limit {
-            return Err(EmbreeError {
-                kind: EmbreeErrorKind::OutOfMemory,
-                message: format!(
-                    "{} vertices and {} triangles need {buffer_bytes} bytes of buffers \
-                     (the memory limit is {limit} bytes)",
-                    vertices.len(),
-                    triangles.len()
-                ),
-            });
-        }
+        check_mesh(vertices, triangles)?;
+        self.check_buffer_memory(vertices.len(), triangles.len())?;
         let _ = self.take_error();
-        let device = self.handle.raw;
-        // SAFETY: `device` is live. Every handle created here is released on all paths:
-        // the geometry right after attaching (the scene retains it), the scene by
-        // `Scene::drop` (or below on error).
-        unsafe {
-            let raw_scene = sys::rtcNewScene(device);
-            if raw_scene.is_null() {
-                return Err(self
-                    .take_error()
-                    .err()
-                    .unwrap_or_else(|| invalid("cannot create a scene".into())));
-            }
-            let mut scene = Scene {
-                raw: raw_scene,
-                device: self.clone(),
-                bytes: 0,
-            };
-            sys::rtcSetSceneBuildQuality(raw_scene, quality.raw());
-            let before = self.bytes_in_use();
+        let mut scene = self.new_scene(quality)?;
+        let before = self.bytes_in_use();
+        let geometry = self.triangle_geometry(vertices, triangles, quality)?;
+        // SAFETY: the scene and the geometry are live and on this device; the scene
+        // keeps its own reference, so dropping `geometry` right after is fine.
+        unsafe { sys::rtcAttachGeometryByID(scene.raw, geometry.0, 0) };
+        drop(geometry);
+        self.take_error()?;
+        // SAFETY: the scene is live and its one geometry is committed.
+        unsafe { sys::rtcCommitScene(scene.raw) };
+        self.take_error()?;
+        scene.bytes = self.bytes_in_use().saturating_sub(before);
+        Ok(scene)
+    }
 
-            let geometry = sys::rtcNewGeometry(device, sys::RTC_GEOMETRY_TYPE_TRIANGLE);
-            if geometry.is_null() {
-                self.take_error()?;
-                return Err(invalid("cannot create a triangle geometry".into()));
-            }
-            sys::rtcSetGeometryBuildQuality(geometry, quality.raw());
-            // Embree allocates these buffers itself, with the tail padding its 16-byte
-            // vertex loads need.
-            let vertex_buffer = sys::rtcSetNewGeometryBuffer(
-                geometry,
-                sys::RTC_BUFFER_TYPE_VERTEX,
-                0,
-                sys::RTC_FORMAT_FLOAT3,
-                12,
-                vertices.len(),
-            ) as *mut [f32; 3];
-            let index_buffer = sys::rtcSetNewGeometryBuffer(
-                geometry,
-                sys::RTC_BUFFER_TYPE_INDEX,
-                0,
-                sys::RTC_FORMAT_UINT3,
-                12,
-                triangles.len(),
-            ) as *mut [u32; 3];
-            if vertex_buffer.is_null() || index_buffer.is_null() {
-                sys::rtcReleaseGeometry(geometry);
-                self.take_error()?;
-                return Err(invalid("cannot allocate the geometry buffers".into()));
-            }
-            for (i, v) in vertices.iter().enumerate() {
-                vertex_buffer.add(i).write(v.to_array());
-            }
-            ptr::copy_nonoverlapping(triangles.as_ptr(), index_buffer, triangles.len());
-            sys::rtcCommitGeometry(geometry);
-            sys::rtcAttachGeometryByID(raw_scene, geometry, 0);
-            sys::rtcReleaseGeometry(geometry);
-            self.take_error()?;
-            sys::rtcCommitScene(raw_scene);
-            self.take_error()?;
-            scene.bytes = self.bytes_in_use().saturating_sub(before);
-            Ok(scene)
+    /// Refuses buffers past the memory limit here rather than let Embree's monitor do
+    /// it: Embree 3.13.5 leaks a device reference when a buffer allocation fails inside
+    /// `rtcSetNewGeometryBuffer` (seen under valgrind), while a refusal during the BVH
+    /// build (in `rtcCommitScene`) cleans up fully.
+    fn check_buffer_memory(&self, vertices: usize, triangles: usize) -> Result<(), EmbreeError> {
+        let buffer_bytes = (vertices * 12 + 16 + triangles * 12) as i64;
+        let limit = self.handle.callbacks.byte_limit.load(Ordering::Relaxed);
+        if (self.bytes_in_use() as i64).saturating_add(buffer_bytes) <= limit {
+            return Ok(());
         }
+        Err(EmbreeError {
+            kind: EmbreeErrorKind::OutOfMemory,
+            message: format!(
+                "{vertices} vertices and {triangles} triangles need {buffer_bytes} bytes of \
+                 buffers (the memory limit is {limit} bytes)"
+            ),
+        })
+    }
+
+    /// An empty robust scene of the given build quality, released when dropped.
+    fn new_scene(&self, quality: BuildQuality) -> Result<Scene, EmbreeError> {
+        // SAFETY: the device is live (`self` holds a reference to it).
+        let raw = unsafe { sys::rtcNewScene(self.handle.raw) };
+        if raw.is_null() {
+            return Err(self
+                .take_error()
+                .err()
+                .unwrap_or_else(|| invalid("cannot create a scene".into())));
+        }
+        // From here `Scene::drop` releases the handle on every path.
+        let scene = Scene {
+            raw,
+            device: self.clone(),
+            bytes: 0,
+        };
+        // SAFETY: `raw` is a live scene, not committed yet.
+        let flags = unsafe { sys::rtcGetSceneFlags(raw) };
+        // SAFETY: as above; ROBUST is a valid scene flag in Embree 3 and 4.
+        unsafe { sys::rtcSetSceneFlags(raw, flags | sys::RTC_SCENE_FLAG_ROBUST) };
+        // SAFETY: as above.
+        unsafe { sys::rtcSetSceneBuildQuality(raw, quality.raw()) };
+        Ok(scene)
+    }
+
+    /// A committed triangle geometry holding copies of `vertices` and `triangles`.
+    fn triangle_geometry(
+        &self,
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        quality: BuildQuality,
+    ) -> Result<Geometry, EmbreeError> {
+        // SAFETY: the device is live.
+        let raw = unsafe { sys::rtcNewGeometry(self.handle.raw, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
+        if raw.is_null() {
+            self.take_error()?;
+            return Err(invalid("cannot create a triangle geometry".into()));
+        }
+        // From here `Geometry::drop` releases the handle on every path.
+        let geometry = Geometry(raw);
+        // SAFETY: `raw` is a live geometry, not committed yet.
+        unsafe { sys::rtcSetGeometryBuildQuality(raw, quality.raw()) };
+        // Embree allocates these buffers itself, with the tail padding its 16-byte
+        // vertex loads need.
+        let vertex_buffer = geometry
+            .new_buffer(
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                sys::RTC_FORMAT_FLOAT3,
+                vertices.len(),
+            )
+            .cast::<[f32; 3]>();
+        let index_buffer = geometry
+            .new_buffer(
+                sys::RTC_BUFFER_TYPE_INDEX,
+                sys::RTC_FORMAT_UINT3,
+                triangles.len(),
+            )
+            .cast::<[u32; 3]>();
+        if vertex_buffer.is_null() || index_buffer.is_null() {
+            self.take_error()?;
+            return Err(invalid("cannot allocate the geometry buffers".into()));
+        }
+        for (i, v) in vertices.iter().enumerate() {
+            // SAFETY: Embree allocated `vertices.len()` 12-byte, 4-byte aligned items at
+            // `vertex_buffer`, owned by the live geometry and not yet read by anyone.
+            unsafe { vertex_buffer.add(i).write(v.to_array()) };
+        }
+        // SAFETY: as above, `triangles.len()` items at `index_buffer`, which cannot
+        // overlap the caller's slice.
+        unsafe { ptr::copy_nonoverlapping(triangles.as_ptr(), index_buffer, triangles.len()) };
+        // SAFETY: the geometry is live and its buffers are filled.
+        unsafe { sys::rtcCommitGeometry(raw) };
+        Ok(geometry)
+    }
+}
+
+/// A triangle geometry handle, released when dropped (a scene it was attached to
+/// keeps its own reference).
+struct Geometry(sys::RTCGeometry);
+
+impl Geometry {
+    /// A new buffer of `count` 12-byte items in slot 0 of `kind`, allocated by Embree
+    /// and owned by the geometry; null (with the error on the device) if it failed.
+    fn new_buffer(
+        &self,
+        kind: sys::RTCBufferType,
+        format: sys::RTCFormat,
+        count: usize,
+    ) -> *mut c_void {
+        // SAFETY: the geometry is live; Embree checks the arguments and reports
+        // errors to the device.
+        unsafe { sys::rtcSetNewGeometryBuffer(self.0, kind, 0, format, 12, count) }
+    }
+}
+
+impl Drop for Geometry {
+    fn drop(&mut self) {
+        // SAFETY: the handle came from rtcNewGeometry and is released once, here.
+        unsafe { sys::rtcReleaseGeometry(self.0) };
+    }
+}
+
+/// An invalid-argument error with `message`.
+fn invalid(message: String) -> EmbreeError {
+    EmbreeError {
+        kind: EmbreeErrorKind::InvalidArgument,
+        message,
+    }
+}
+
+/// A mesh Embree can take: at least one triangle, and every index names a vertex.
+fn check_mesh(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), EmbreeError> {
+    if triangles.is_empty() {
+        return Err(invalid("a scene needs at least one triangle".into()));
+    }
+    match triangles
+        .iter()
+        .flatten()
+        .find(|&&i| i as usize >= vertices.len())
+    {
+        Some(bad) => Err(invalid(format!(
+            "vertex index {bad} out of range for {} vertices",
+            vertices.len()
+        ))),
+        None => Ok(()),
     }
 }
 

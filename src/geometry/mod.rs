@@ -102,7 +102,10 @@ impl SurfaceOrigin {
     /// A ray leaving this surface along `dir`.
     #[inline]
     pub fn spawn(&self, dir: Vec3) -> Ray {
-        Ray::new(self.offset_towards(dir), dir)
+        Ray {
+            tmin: SPAWN_TMIN,
+            ..Ray::new(self.offset_towards(dir), dir)
+        }
     }
 
     /// A shadow ray from this surface to the surface point `to`, stopping just short
@@ -112,9 +115,17 @@ impl SurfaceOrigin {
     pub fn spawn_to(&self, to: &SurfaceOrigin) -> Ray {
         let from = self.offset_towards(to.p - self.p);
         let end = to.offset_towards(from - to.p);
-        Ray::segment(from, end - from, 1.0 - SHADOW_EPSILON)
+        Ray {
+            tmin: SPAWN_TMIN,
+            ..Ray::segment(from, end - from, 1.0 - SHADOW_EPSILON)
+        }
     }
 }
+
+/// Where spawned rays start counting hits: just above 0, because Embree's robust mode
+/// reports the surface a ray leaves at exactly `t = 0` (or `-0`) when the origin lies
+/// within its own, wider tolerance.
+pub const SPAWN_TMIN: f32 = f32::MIN_POSITIVE;
 
 /// Fraction of a shadow segment left out at its far end.
 pub const SHADOW_EPSILON: f32 = 1e-4;

@@ -138,14 +138,15 @@ impl Rng {
     }
 
     /// `coarse`, a draw of this stream (a multiple of 2^-23), refined by random bits
-    /// within its cell: uniform in `[0, 1)` to 55 bits, so that cutting it into
+    /// within its cell: uniform in `[0, 1)` to the 53 bits an `f64` holds (23 coarse bits
+    /// and 32 random ones below them, rounded to the mantissa), so that cutting it into
     /// millions of cells (an index, then a fraction) stays uniform.
     #[inline]
     pub fn refine(&mut self, coarse: f32) -> f64 {
         f64::from(coarse) + f64::from(self.pcg.next_u32()) * (1.0 / (1u64 << 55) as f64)
     }
 
-    /// Uniform in `[0, 1)` to 55 bits.
+    /// Uniform in `[0, 1)` to 53 bits.
     #[inline]
     pub fn f64(&mut self) -> f64 {
         let coarse = self.f32();

@@ -5,7 +5,6 @@ mod camera;
 mod material;
 mod mesh;
 mod obj;
-mod procedural;
 
 pub use camera::{Camera, CameraSettings};
 pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
@@ -13,7 +12,6 @@ pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
-pub use procedural::{ParseProceduralError, Procedural, ProceduralKind, MAX_PROCEDURAL_TRIANGLES};
 
 use glam::Vec3;
 use std::path::PathBuf;

@@ -2,21 +2,24 @@
 //! 32 bins on each axis (parallel over rayon's workers), or where that split's sides
 //! overlap much, a spatial split ([`spatial`]); then collapsed into 4-wide nodes by
 //! repeatedly opening the child with the largest surface area.
+//!
+//! The tree is a function of the mesh alone, not of the thread count: parallel binning
+//! merges boxes (min/max) and counts (integers), which is exact in any order; every
+//! choice between equal costs is strict (the first axis, the lowest bin, the object
+//! split over the spatial one); and spatial splits draw on a budget that each node
+//! shares between its children by size.
 
-use std::sync::atomic::AtomicIsize;
-
-use glam::{BVec3A, UVec3, Vec3A, Vec4};
+use glam::{BVec3A, UVec3, Vec3A};
 use rayon::prelude::*;
 
-use super::node::{Child, Node4, MAX_LEAF, MAX_TRIANGLES};
+use super::aabb::{Aabb, PrimRef};
+use super::node::{Child, Node4, MAX_BLOCKS, MAX_LEAF};
+use super::sah::{blocks, ObjectSplit, TRAVERSAL_COST};
 use super::spatial::{self, Spatial};
 
-/// Most bins per axis for the SAH sweep (fewer for small ranges, see [`bin_count`]).
-const BINS: usize = 32;
-/// Cost of visiting a node relative to one ray/triangle test.
-pub const TRAVERSAL_COST: f32 = 2.0;
-/// Ranges this small become leaves without a SAH evaluation.
-const SMALL_LEAF: usize = 4;
+/// Most bins per axis for the object split's SAH sweep (fewer for small ranges, see
+/// [`bin_count`]).
+const OBJECT_BINS: usize = 32;
 /// Subtrees at least this large are built on two workers (`rayon::join`).
 const PARALLEL_SUBTREE: usize = 2048;
 /// Ranges at least this large are binned in parallel chunks.
@@ -24,204 +27,6 @@ const PARALLEL_SCAN: usize = 64 * 1024;
 /// Below this binary depth splits follow the SAH; deeper, the object median, so the
 /// tree depth (and the traversal stack) stays bounded whatever the mesh.
 const SAH_DEPTH: u32 = 48;
-
-/// An axis-aligned box; empty when `lo > hi`. SIMD-wide (`Vec3A`) for fast unions.
-#[derive(Clone, Copy, Debug)]
-pub struct Aabb {
-    pub lo: Vec3A,
-    pub hi: Vec3A,
-}
-
-impl Aabb {
-    pub const EMPTY: Aabb = Aabb {
-        lo: Vec3A::splat(f32::INFINITY),
-        hi: Vec3A::splat(f32::NEG_INFINITY),
-    };
-
-    #[inline]
-    pub fn union(self, o: Aabb) -> Aabb {
-        Aabb {
-            lo: self.lo.min(o.lo),
-            hi: self.hi.max(o.hi),
-        }
-    }
-
-    #[inline]
-    pub fn grow(self, p: Vec3A) -> Aabb {
-        Aabb {
-            lo: self.lo.min(p),
-            hi: self.hi.max(p),
-        }
-    }
-
-    #[inline]
-    pub fn intersect(self, o: Aabb) -> Aabb {
-        Aabb {
-            lo: self.lo.max(o.lo),
-            hi: self.hi.min(o.hi),
-        }
-    }
-
-    #[inline]
-    pub fn is_empty(self) -> bool {
-        self.lo.cmpgt(self.hi).any()
-    }
-
-    /// Half the surface area (the SAH only compares ratios); 0 for an empty box.
-    #[inline]
-    pub fn half_area(self) -> f32 {
-        let d = (self.hi - self.lo).max(Vec3A::ZERO);
-        d.x * d.y + d.y * d.z + d.z * d.x
-    }
-}
-
-/// A triangle as the builder sees it: its box, with its index in the mesh stored in
-/// the spare fourth lane of `hi` (32 bytes, two aligned SIMD loads).
-#[derive(Clone, Copy, Debug)]
-#[repr(C)]
-pub struct PrimRef {
-    lo: Vec4,
-    hi: Vec4,
-}
-
-impl PrimRef {
-    pub fn new(lo: Vec3A, hi: Vec3A, id: u32) -> Self {
-        PrimRef {
-            lo: lo.extend(0.0),
-            hi: hi.extend(f32::from_bits(id)),
-        }
-    }
-
-    #[inline]
-    pub fn id(&self) -> u32 {
-        self.hi.w.to_bits()
-    }
-
-    /// Twice the centroid (the factor cancels in binning).
-    #[inline]
-    fn centroid2(&self) -> Vec3A {
-        Vec3A::from_vec4(self.lo) + Vec3A::from_vec4(self.hi)
-    }
-
-    #[inline]
-    pub fn aabb(&self) -> Aabb {
-        Aabb {
-            lo: Vec3A::from_vec4(self.lo),
-            hi: Vec3A::from_vec4(self.hi),
-        }
-    }
-}
-
-/// Triangles whose box has more than this many times the average surface area are
-/// split into several references with tighter boxes.
-const PRESPLIT_AREA: f32 = 8.0;
-/// At most this many halvings per triangle (up to 2^depth references).
-const PRESPLIT_DEPTH: u32 = 6;
-/// At most this many extra references, as a fraction of the triangle count.
-const PRESPLIT_BUDGET: f32 = 0.5;
-
-/// A convex polygon: a triangle clipped by a few axis-aligned planes.
-#[derive(Clone, Copy)]
-struct Polygon {
-    v: [Vec3A; 3 + PRESPLIT_DEPTH as usize],
-    n: usize,
-}
-
-impl Polygon {
-    fn bounds(&self) -> Aabb {
-        self.v[..self.n].iter().fold(Aabb::EMPTY, |b, &p| b.grow(p))
-    }
-
-    /// The parts below and above `at` on `axis` (one Sutherland–Hodgman step each).
-    fn split(&self, axis: usize, at: f32) -> (Polygon, Polygon) {
-        let empty = Polygon {
-            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
-            n: 0,
-        };
-        let (mut lo, mut hi) = (empty, empty);
-        let push = |poly: &mut Polygon, p: Vec3A| {
-            if poly.n < poly.v.len() {
-                poly.v[poly.n] = p;
-                poly.n += 1;
-            }
-        };
-        for i in 0..self.n {
-            let (a, b) = (self.v[i], self.v[(i + 1) % self.n]);
-            let (da, db) = (a[axis] - at, b[axis] - at);
-            if da <= 0.0 {
-                push(&mut lo, a);
-            }
-            if da >= 0.0 {
-                push(&mut hi, a);
-            }
-            if (da < 0.0 && db > 0.0) || (da > 0.0 && db < 0.0) {
-                let mut p = a + (b - a) * (da / (da - db));
-                p[axis] = at;
-                push(&mut lo, p);
-                push(&mut hi, p);
-            }
-        }
-        (lo, hi)
-    }
-}
-
-/// Early split clipping (Ernst and Greiner 2007): a triangle much larger than the
-/// average (a floor, a wall) gets a box far bigger than the geometry in most of it, and
-/// every ray near that box pays for it. Such triangles are cut at the middle of their
-/// box's longest axis, recursively, and each piece becomes a reference with the box of
-/// the clipped polygon. Leaves then hold some triangles more than once, which costs
-/// nothing in correctness: the nearest hit is the nearest hit.
-pub fn presplit(refs: &mut Vec<PrimRef>, corners: impl Fn(u32) -> [Vec3A; 3]) {
-    if refs.is_empty() {
-        return;
-    }
-    let mean = refs.iter().map(|r| r.aabb().half_area()).sum::<f32>() / refs.len() as f32;
-    let threshold = PRESPLIT_AREA * mean;
-    let mut budget = ((refs.len() as f32 * PRESPLIT_BUDGET) as usize)
-        .min(MAX_TRIANGLES.saturating_sub(refs.len()));
-    let large: Vec<usize> = (0..refs.len())
-        .filter(|&i| refs[i].aabb().half_area() > threshold)
-        .collect();
-    for i in large {
-        let id = refs[i].id();
-        let [a, b, c] = corners(id);
-        let mut tri = Polygon {
-            v: [Vec3A::ZERO; 3 + PRESPLIT_DEPTH as usize],
-            n: 3,
-        };
-        tri.v[..3].copy_from_slice(&[a, b, c]);
-        let mut pieces = Vec::new();
-        let mut todo = vec![(tri, 0u32)];
-        while let Some((poly, depth)) = todo.pop() {
-            let bounds = poly.bounds();
-            if depth >= PRESPLIT_DEPTH || bounds.half_area() <= threshold || budget == 0 {
-                pieces.push(bounds);
-                continue;
-            }
-            let axis = (bounds.hi - bounds.lo).max_position();
-            let at = 0.5 * (bounds.lo[axis] + bounds.hi[axis]);
-            let (lo, hi) = poly.split(axis, at);
-            budget -= 1;
-            for part in [lo, hi] {
-                if part.n >= 3 {
-                    todo.push((part, depth + 1));
-                }
-            }
-        }
-        let whole = refs[i].aabb();
-        for (k, piece) in pieces.iter().enumerate() {
-            // Clipping must not grow a box past the triangle's own (rounding).
-            let lo = piece.lo.max(whole.lo);
-            let hi = piece.hi.min(whole.hi);
-            let r = PrimRef::new(lo, hi, id);
-            if k == 0 {
-                refs[i] = r;
-            } else {
-                refs.push(r);
-            }
-        }
-    }
-}
 
 /// The binary tree the SAH produces; leaves hold the indices of their triangles.
 enum BuildNode {
@@ -293,7 +98,7 @@ fn bin_count(n: usize) -> usize {
     match n {
         0..64 => 8,
         64..1024 => 16,
-        _ => BINS,
+        _ => OBJECT_BINS,
     }
 }
 
@@ -365,17 +170,6 @@ fn sample_stride(n: usize) -> usize {
     (n / SAMPLE_FROM).clamp(1, MAX_SAMPLE_STRIDE)
 }
 
-/// A binned object split: axis, number of bins on the left, SAH cost, and the boxes
-/// of the two sides (from the sample when the range was sampled).
-#[derive(Clone, Copy)]
-pub struct ObjectSplit {
-    pub axis: usize,
-    pub bins_left: usize,
-    pub cost: f32,
-    pub left: Aabb,
-    pub right: Aabb,
-}
-
 /// The cheapest binned split with `N` bins per axis (`binner` must have `N` bins).
 fn best_split<const N: usize>(
     refs: &[PrimRef],
@@ -433,6 +227,7 @@ fn best_split<const N: usize>(
             let cost = TRAVERSAL_COST
                 + (box_l.half_area() * blocks(n_l as usize * stride) + right_cost[split])
                     * inv_area;
+            // Strictly cheaper: on equal costs the first axis and lowest bin stay.
             if best.map_or(true, |b| cost < b.cost) {
                 best = Some(ObjectSplit {
                     axis,
@@ -445,12 +240,6 @@ fn best_split<const N: usize>(
         }
     }
     best
-}
-
-/// Intersection cost of `n` triangles: leaves test them four at a time.
-#[inline]
-pub fn blocks(n: usize) -> f32 {
-    n.div_ceil(4) as f32
 }
 
 /// Moves the references that satisfy `left` to the front; returns how many there are
@@ -501,16 +290,20 @@ fn leaf_of(refs: &[PrimRef], bounds: Aabb) -> BuildNode {
     }
 }
 
+/// The subtree over `refs`, whose box and centroid box are `bounds` and `centroids`;
+/// spatial splits in it may add up to `budget` references.
 fn build_node(
     refs: &mut [PrimRef],
     depth: u32,
     (bounds, centroids): (Aabb, Aabb),
+    budget: usize,
     spatial: &Spatial,
 ) -> BuildNode {
     let n = refs.len();
-    // A 4-wide node tests four boxes at once, so splitting four triangles or fewer
-    // gains nothing the leaf test would not give.
-    if n <= SMALL_LEAF {
+    // A leaf's triangles are tested four at a time, as one block: splitting four or
+    // fewer gains nothing the leaf test would not give. More must split (a leaf holds
+    // one block).
+    if n <= MAX_LEAF {
         return leaf_of(refs, bounds);
     }
     let binner = Binner::new(centroids, bin_count(n));
@@ -520,19 +313,25 @@ fn build_node(
         match binner.bins {
             8 => best_split::<8>(refs, bounds, &binner),
             16 => best_split::<16>(refs, bounds, &binner),
-            _ => best_split::<BINS>(refs, bounds, &binner),
+            _ => best_split::<OBJECT_BINS>(refs, bounds, &binner),
         }
     };
-    if n <= MAX_LEAF && split.map_or(true, |s| s.cost >= blocks(n)) {
-        return leaf_of(refs, bounds);
-    }
     // Spatial splits copy the references of the two sides; object splits reorder them
     // in place.
     if let Some((mut left, mut right)) =
-        split.and_then(|object| spatial.try_split(refs, bounds, &object))
+        split.and_then(|object| spatial.try_split(refs, bounds, &object, budget))
     {
+        let added = left.len() + right.len() - n;
+        let budgets = share(budget - added, left.len(), right.len());
         let (lb, rb) = (bounds_of(&left), bounds_of(&right));
-        return inner(bounds, depth, (&mut left, lb), (&mut right, rb), spatial);
+        return inner(
+            bounds,
+            depth,
+            (&mut left, lb),
+            (&mut right, rb),
+            budgets,
+            spatial,
+        );
     }
     let (mid, left_bounds, right_bounds) = match split {
         Some(ObjectSplit {
@@ -540,44 +339,60 @@ fn build_node(
         }) => partition(refs, |r| {
             (binner.bins(r.centroid2())[axis] as usize) < bins_left
         }),
-        None => {
-            // Object median on the widest centroid axis: always balanced.
-            let axis = (centroids.hi - centroids.lo).max_position();
-            refs.select_nth_unstable_by(n / 2, |a, b| {
-                a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
-            });
-            let (l, r) = refs.split_at(n / 2);
-            (n / 2, bounds_of(l), bounds_of(r))
-        }
+        None => median_split(refs, centroids),
     };
+    let budgets = share(budget, mid, n - mid);
     let (left, right) = refs.split_at_mut(mid);
     inner(
         bounds,
         depth,
         (left, left_bounds),
         (right, right_bounds),
+        budgets,
         spatial,
     )
 }
 
-/// The inner node over two sides, each with its (box, centroid box); built on two
-/// workers when large.
+/// The object median on the widest centroid axis: always balanced. Returns where the
+/// right side starts and the (box, centroid box) of each side.
+fn median_split(refs: &mut [PrimRef], centroids: Aabb) -> (usize, (Aabb, Aabb), (Aabb, Aabb)) {
+    let n = refs.len();
+    let axis = (centroids.hi - centroids.lo).max_position();
+    refs.select_nth_unstable_by(n / 2, |a, b| {
+        a.centroid2()[axis].total_cmp(&b.centroid2()[axis])
+    });
+    let (l, r) = refs.split_at(n / 2);
+    (n / 2, bounds_of(l), bounds_of(r))
+}
+
+/// Shares a spatial-split budget between two sides in proportion to their references
+/// (as Embree's SBVH builder does). Each subtree's budget then follows from the tree
+/// above it alone, never from which worker got to a shared counter first, so the tree
+/// is the same at any thread count.
+fn share(budget: usize, left: usize, right: usize) -> (usize, usize) {
+    let l = (budget as u128 * left as u128 / (left + right).max(1) as u128) as usize;
+    (l, budget - l)
+}
+
+/// The inner node over two sides, each with its (box, centroid box) and budget; built
+/// on two workers when large.
 fn inner(
     bounds: Aabb,
     depth: u32,
     (left, lb): (&mut [PrimRef], (Aabb, Aabb)),
     (right, rb): (&mut [PrimRef], (Aabb, Aabb)),
+    (l_budget, r_budget): (usize, usize),
     spatial: &Spatial,
 ) -> BuildNode {
     let (a, b) = if left.len() + right.len() >= PARALLEL_SUBTREE {
         rayon::join(
-            || build_node(left, depth + 1, lb, spatial),
-            || build_node(right, depth + 1, rb, spatial),
+            || build_node(left, depth + 1, lb, l_budget, spatial),
+            || build_node(right, depth + 1, rb, r_budget, spatial),
         )
     } else {
         (
-            build_node(left, depth + 1, lb, spatial),
-            build_node(right, depth + 1, rb, spatial),
+            build_node(left, depth + 1, lb, l_budget, spatial),
+            build_node(right, depth + 1, rb, r_budget, spatial),
         )
     };
     BuildNode::Inner {
@@ -642,14 +457,14 @@ pub fn build(
 ) -> Vec<Node4> {
     debug_assert!(!refs.is_empty());
     let bounds = bounds_of(refs);
-    let budget = (refs.len() as f32 * spatial::BUDGET) as usize;
     let spatial = Spatial {
         corners,
         root_area: bounds.0.half_area(),
-        // Leaves address blocks with 27 bits: never more references than that.
-        budget: AtomicIsize::new(budget.min(MAX_TRIANGLES.saturating_sub(refs.len())) as isize),
     };
-    let tree = build_node(refs, 0, bounds, &spatial);
+    // Leaves address blocks with 27 bits: never more references than that.
+    let budget =
+        ((refs.len() as f32 * spatial::BUDGET) as usize).min(MAX_BLOCKS.saturating_sub(refs.len()));
+    let tree = build_node(refs, 0, bounds, budget, &spatial);
     let mut nodes = Vec::with_capacity(refs.len() / 4 + 1);
     match &tree {
         BuildNode::Leaf { bounds, .. } => {

@@ -2,8 +2,12 @@
 //! front to back with four slab tests per node in one auto-vectorised loop, and
 //! watertight ray/triangle tests ([`triangle`]) in the leaves.
 
+mod aabb;
 mod build;
+mod clip;
 mod node;
+mod presplit;
+mod sah;
 mod spatial;
 mod triangle;
 
@@ -11,8 +15,8 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use thiserror::Error;
 
-use self::build::PrimRef;
-use self::node::{Child, Node4, MAX_LEAF, MAX_TRIANGLES, WIDTH};
+use self::aabb::PrimRef;
+use self::node::{Child, Node4, MAX_BLOCKS, MAX_LEAF, WIDTH};
 use self::triangle::{RayShear, TriBlock};
 use super::{Accel, Hit, Ray};
 
@@ -21,7 +25,7 @@ use super::{Accel, Hit, Ray};
 pub enum BvhError {
     #[error("vertex index {index} out of range for {vertices} vertices")]
     IndexOutOfRange { index: u32, vertices: usize },
-    #[error("{0} triangles is more than the native BVH can index ({MAX_TRIANGLES})")]
+    #[error("{0} triangles is more than the native BVH can index ({MAX_BLOCKS})")]
     TooManyTriangles(usize),
 }
 
@@ -96,7 +100,7 @@ impl Bvh {
     /// Builds the tree on the current rayon pool. Triangles with a non-finite vertex can
     /// never be hit and are left out.
     pub fn build(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<Bvh, BvhError> {
-        if triangles.len() > MAX_TRIANGLES {
+        if triangles.len() > MAX_BLOCKS {
             return Err(BvhError::TooManyTriangles(triangles.len()));
         }
         if let Some(&index) = triangles
@@ -127,7 +131,7 @@ impl Bvh {
             });
         }
         let corners_of = |id: u32| corners(&triangles[id as usize]).map(Vec3A::from);
-        build::presplit(&mut refs, corners_of);
+        presplit::presplit(&mut refs, corners_of);
         let mut blocks = Vec::with_capacity(refs.len() / 3);
         let nodes = build::build(&mut refs, &corners_of, |leaf| {
             // Pieces of one split triangle may share a leaf: test it once.
@@ -394,6 +398,74 @@ mod tests {
         let empty = Bvh::build(&v, &[]).unwrap();
         assert!(empty.intersect(&Ray::new(Vec3::ZERO, Vec3::X)).is_none());
         assert!(!empty.occluded(&Ray::new(Vec3::ZERO, Vec3::X)));
+    }
+
+    /// Every bit of the tree: node boxes and children, leaf triangles and their ids.
+    fn tree_bits(bvh: &Bvh) -> Vec<u32> {
+        let mut bits = Vec::new();
+        for node in &bvh.nodes {
+            bits.extend(
+                node.lo
+                    .iter()
+                    .chain(&node.hi)
+                    .flatten()
+                    .map(|x| x.to_bits()),
+            );
+            bits.extend(node.child.iter().map(|c| c.0));
+        }
+        for block in &bvh.blocks {
+            bits.extend(block.v.iter().flatten().flatten().map(|x| x.to_bits()));
+            bits.extend(block.prim);
+        }
+        bits
+    }
+
+    #[test]
+    fn the_tree_is_the_same_on_one_and_two_threads() {
+        // 80 000 triangles, large enough for parallel binning and parallel subtrees: a
+        // floor of small quads, each quad twice (coplanar duplicates), crossed by long
+        // thin triangles that ask for spatial splits (and exhaust their budget).
+        let mut rng = crate::sampling::Rng::seeded(8);
+        let mut v = Vec::new();
+        let mut t = Vec::new();
+        for i in 0..20_000u32 {
+            let p = Vec3::new((i % 200) as f32, 0.0, (i / 200) as f32);
+            let k = v.len() as u32;
+            v.extend([p, p + Vec3::X, p + Vec3::Z, p + Vec3::X + Vec3::Z]);
+            for _ in 0..2 {
+                t.extend([[k, k + 1, k + 3], [k, k + 3, k + 2]]);
+            }
+        }
+        for _ in 0..2_000 {
+            let mut p = || Vec3::new(rng.f32() * 200.0, rng.f32() * 5.0, rng.f32() * 100.0);
+            let (a, b) = (p(), p());
+            let k = v.len() as u32;
+            v.extend([a, b, b + Vec3::new(0.1, 0.5, 0.0)]);
+            t.push([k, k + 1, k + 2]);
+        }
+        let on = |threads| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap();
+            pool.install(|| Bvh::build(&v, &t).unwrap())
+        };
+        let one = tree_bits(&on(1));
+        for _ in 0..3 {
+            assert!(
+                one == tree_bits(&on(2)),
+                "the tree changed with the thread count"
+            );
+        }
+        let refs: usize = on(1)
+            .blocks
+            .iter()
+            .map(|b| b.prim.iter().filter(|&&p| p != u32::MAX).count())
+            .sum();
+        assert!(
+            refs > t.len(),
+            "no triangle was split: the budget was not exercised"
+        );
     }
 
     #[test]

@@ -4,12 +4,15 @@
 /// How many children an inner node has.
 pub const WIDTH: usize = 4;
 
-/// Most triangles a leaf may hold (the leaf code has 4 bits for the count).
+/// Most references a leaf holds: one block of four triangles, tested at once. (The leaf
+/// code could count up to 16 blocks; the builder makes leaves of one.)
 pub const MAX_LEAF: usize = 4;
 
-/// Most triangles a BVH can index: leaves address blocks of up to four triangles with
-/// 27 bits, and there are never more blocks than triangles.
-pub const MAX_TRIANGLES: usize = 1 << 27;
+/// Most triangle blocks a BVH can address: a leaf names its first block with 27 bits.
+/// The builder never makes more references than this (presplits and spatial splits
+/// included), and there are never more blocks than references, so it also bounds the
+/// triangles a BVH can index. (Not `scene::MAX_BLOCKS`, ember's limit for a scene.)
+pub const MAX_BLOCKS: usize = 1 << 27;
 
 const LEAF_BIT: u32 = 1 << 31;
 
@@ -25,7 +28,7 @@ impl Child {
     }
 
     pub fn leaf(first: usize, count: usize) -> Self {
-        debug_assert!((1..=16).contains(&count) && first < MAX_TRIANGLES);
+        debug_assert!((1..=16).contains(&count) && first < MAX_BLOCKS);
         Child(LEAF_BIT | ((count as u32 - 1) << 27) | first as u32)
     }
 
@@ -37,7 +40,7 @@ impl Child {
     /// The block range of a leaf.
     #[inline(always)]
     pub fn range(self) -> std::ops::Range<usize> {
-        let first = (self.0 & (MAX_TRIANGLES as u32 - 1)) as usize;
+        let first = (self.0 & (MAX_BLOCKS as u32 - 1)) as usize;
         let count = ((self.0 >> 27) & 15) as usize + 1;
         first..first + count
     }
@@ -80,7 +83,7 @@ mod tests {
 
     #[test]
     fn leaf_codes_round_trip() {
-        for (first, count) in [(0, 1), (5, 8), (MAX_TRIANGLES - 16, 16), (123_456, 3)] {
+        for (first, count) in [(0, 1), (5, 8), (MAX_BLOCKS - 16, 16), (123_456, 3)] {
             let c = Child::leaf(first, count);
             assert!(c.is_leaf());
             assert_eq!(c.range(), first..first + count);

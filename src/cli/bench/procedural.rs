@@ -7,7 +7,7 @@ use std::str::FromStr;
 
 use glam::Vec3;
 
-use crate::sampling::{uniform_sphere, Rng};
+use ember::sampling::{uniform_sphere, Rng};
 
 /// Which procedural mesh.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

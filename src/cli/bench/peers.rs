@@ -1,24 +1,19 @@
 //! Published BVH crates behind [`Accel`], so `ember bench` (with `--features peers`) runs
 //! them on the same rays: `obvhs` (a compressed-wide CWBVH built by PLOC) and `bvh` (a
-//! binary SAH BVH). Neither reports barycentrics, so their hits carry `u = v = 0`; the
-//! benchmark only counts hits.
+//! binary SAH BVH). Their hits carry barycentrics as `Hit` promises, computed by ember
+//! with Möller–Trumbore (the `bvh` crate has no triangle test, `obvhs` reports only the
+//! distance), so they may differ from where the crate's own test placed the hit by
+//! rounding, not more.
 
 use glam::Vec3;
 use glam_obvhs::Vec3A as OVec3A;
 
-use super::{Accel, Hit, Ray};
+use ember::accel::{Accel, Hit, Ray};
 
-/// Two-sided Möller–Trumbore: the distance to a triangle along `dir`, if within
-/// `(tmin, tmax)`. The `bvh` crate's own test culls back faces, which Embree and
-/// ember's BVH do not.
+/// Where a ray meets a triangle's plane: distance and barycentrics `(t, u, v)` with
+/// `p = (1 - u - v) a + u b + v c`; `None` for a ray parallel to the plane.
 #[inline]
-fn moller_trumbore(
-    origin: Vec3,
-    dir: Vec3,
-    [a, b, c]: &[Vec3; 3],
-    tmin: f32,
-    tmax: f32,
-) -> Option<f32> {
+fn plane_hit(origin: Vec3, dir: Vec3, [a, b, c]: &[Vec3; 3]) -> Option<(f32, f32, f32)> {
     let (e1, e2) = (*b - *a, *c - *a);
     let p = dir.cross(e2);
     let det = e1.dot(p);
@@ -31,7 +26,22 @@ fn moller_trumbore(
     let q = s.cross(e1);
     let v = dir.dot(q) * inv;
     let t = e2.dot(q) * inv;
-    (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tmin && t <= tmax).then_some(t)
+    Some((t, u, v))
+}
+
+/// Two-sided Möller–Trumbore: distance and barycentrics of the hit, if inside the
+/// triangle and within `[tmin, tmax]`. The `bvh` crate's own test culls back faces,
+/// which Embree and ember's BVH do not.
+#[inline]
+fn moller_trumbore(
+    origin: Vec3,
+    dir: Vec3,
+    tri: &[Vec3; 3],
+    tmin: f32,
+    tmax: f32,
+) -> Option<(f32, f32, f32)> {
+    plane_hit(origin, dir, tri)
+        .filter(|&(t, u, v)| u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t >= tmin && t <= tmax)
 }
 
 /// `obvhs`'s CWBVH with its medium build preset and its own triangle test.
@@ -86,14 +96,24 @@ impl Accel for ObvhsAccel {
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let mut hit = obvhs::ray::RayHit::none();
         let tris = &self.tris;
-        self.bvh
+        if !self
+            .bvh
             .ray_traverse(Self::ray(ray), &mut hit, |r, id| tris[id].intersect(r))
-            .then(|| Hit {
-                t: hit.t,
-                prim: self.bvh.primitive_indices[hit.primitive_id as usize],
-                u: 0.0,
-                v: 0.0,
-            })
+        {
+            return None;
+        }
+        // obvhs reports the distance only: the barycentrics come from the same
+        // triangle's plane, clamped into it (the hit is on the triangle).
+        let tri = &tris[hit.primitive_id as usize];
+        let corners = [tri.v0, tri.v1, tri.v2].map(|p| Vec3::from_array(p.to_array()));
+        let (_, u, v) = plane_hit(ray.origin, ray.dir, &corners).unwrap_or((0.0, 0.0, 0.0));
+        let (u, v) = (u.clamp(0.0, 1.0), v.clamp(0.0, 1.0));
+        Some(Hit {
+            t: hit.t,
+            prim: self.bvh.primitive_indices[hit.primitive_id as usize],
+            u,
+            v: v.min(1.0 - u),
+        })
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -188,22 +208,20 @@ impl Accel for BvhCrateAccel {
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
         let query = Self::ray(ray);
-        let mut best: Option<(f32, &BvhShape)> = None;
+        let mut best: Option<Hit> = None;
         for shape in self.bvh.nearest_traverse_iterator(&query, &self.shapes) {
-            let tmax = best.map_or(ray.tmax, |b| b.0);
+            let tmax = best.map_or(ray.tmax, |b| b.t);
             if box_entry(ray, shape.lo, shape.hi) > tmax {
                 break;
             }
-            if let Some(t) = moller_trumbore(ray.origin, ray.dir, &shape.corners, ray.tmin, tmax) {
-                best = Some((t, shape));
+            if let Some((t, u, v)) =
+                moller_trumbore(ray.origin, ray.dir, &shape.corners, ray.tmin, tmax)
+            {
+                let prim = shape.prim;
+                best = Some(Hit { t, prim, u, v });
             }
         }
-        best.map(|(t, shape)| Hit {
-            t,
-            prim: shape.prim,
-            u: 0.0,
-            v: 0.0,
-        })
+        best
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
