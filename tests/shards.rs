@@ -219,6 +219,15 @@ fn a_killed_shard_resumes_from_its_own_file() {
         "{line}"
     );
     assert!(!out.exists());
+    // --allow-partial merges what it has, and says so.
+    let run = merge(&[part.clone(), other.clone()], &out, &["--allow-partial"]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(
+        stderr(&run).contains("slow.shard is incomplete"),
+        "{}",
+        stderr(&run)
+    );
+    std::fs::remove_file(&out).unwrap();
 
     // Run again with --resume: it continues and the merge is the one-process image.
     let mut args = render_args(part.to_str().unwrap(), &spp);
