@@ -56,9 +56,9 @@ pub struct RayCount {
 }
 
 /// Russian roulette may end a path at this vertex and later (vertex `k` ends segment
-/// `k`), before the vertex samples lights or scatters: short paths carry most of the
-/// image, long ones are cut in proportion to their throughput.
-pub const ROULETTE_START_VERTEX: u32 = 5;
+/// `k`), after the vertex's light sample and before it scatters: short paths carry
+/// most of the image, long ones are cut in proportion to their throughput.
+pub const ROULETTE_START_VERTEX: u32 = 4;
 
 /// A path tracer over one scene and one accelerator; generic so that ray queries are
 /// static calls in the hot loop.
@@ -144,9 +144,22 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             if segment == self.max_depth {
                 break;
             }
-            // Roulette before the vertex scatters, not after: the emission a step
-            // aimed at (the mixture's light half) is then counted before its
-            // possibly small weight can end the path, which would make fireflies.
+            let bsdf = self.scene.bsdf(&surface);
+            let wo = -ray.dir;
+            let last_vertex = segment + 1 == self.max_depth;
+            let next_event = !bsdf.is_delta()
+                && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
+            let mis = self.kind == IntegratorKind::Mis && !last_vertex;
+            if next_event {
+                radiance += throughput * self.direct_light(&surface, &bsdf, wo, mis, rng, count);
+                if last_vertex {
+                    break;
+                }
+            }
+            // Roulette after what this vertex adds itself (its light sample) and before
+            // it chooses where the path goes: the emission that choice aims at (the
+            // mixture's light half) is then counted before a small weight could end the
+            // path, which would make fireflies.
             if segment >= ROULETTE_START_VERTEX {
                 let survive = (throughput * eta_scale).max_element().min(0.95);
                 if rng.f32() >= survive || survive.is_nan() {
@@ -154,30 +167,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 }
                 throughput /= survive;
             }
-            let bsdf = self.scene.bsdf(&surface);
-            let wo = -ray.dir;
-            let last_vertex = segment + 1 == self.max_depth;
-            let step = if bsdf.is_delta() {
-                self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng)
-            } else {
-                match self.kind {
-                    IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
-                    IntegratorKind::Light | IntegratorKind::Mis => {
-                        let mis = self.kind == IntegratorKind::Mis && !last_vertex;
-                        radiance +=
-                            throughput * self.direct_light(&surface, &bsdf, wo, mis, rng, count);
-                        if last_vertex {
-                            break;
-                        }
-                        let emission = if mis {
-                            EmissionWeight::Mis { bsdf_pdf: 0.0 }
-                        } else {
-                            EmissionWeight::Skip
-                        };
-                        self.bsdf_step(&bsdf, wo, emission, rng)
-                    }
-                    IntegratorKind::Mixture => self.mixture_step(&surface, &bsdf, wo, rng, count),
+            let step = match self.kind {
+                _ if bsdf.is_delta() => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
+                IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
+                IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
+                IntegratorKind::Mis => {
+                    let pending = EmissionWeight::Mis { bsdf_pdf: 0.0 };
+                    self.bsdf_step(&bsdf, wo, pending, rng)
                 }
+                IntegratorKind::Mixture => self.mixture_step(&surface, &bsdf, wo, rng, count),
             };
             let Some(step) = step else {
                 break;
