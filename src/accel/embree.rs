@@ -1,8 +1,10 @@
 //! The Embree backend of [`Accel`]: a thin forwarding layer over `crate::embree::Scene`.
 
+use std::sync::Arc;
+
 use glam::Vec3;
 
-use super::{Accel, Hit, Ray};
+use super::{Accel, Hit, HitFilter, Ray};
 use crate::embree::{BuildQuality, Device, EmbreeError, Scene};
 
 /// A triangle mesh committed to Embree.
@@ -19,6 +21,19 @@ impl EmbreeAccel {
     ) -> Result<Self, EmbreeError> {
         Ok(EmbreeAccel {
             scene: device.build_triangle_scene(vertices, triangles, quality)?,
+        })
+    }
+
+    /// A mesh whose hits `filter` decides (cut-outs), through Embree's filter functions.
+    pub fn build_filtered<F: HitFilter>(
+        device: &Device,
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        quality: BuildQuality,
+        filter: Arc<F>,
+    ) -> Result<Self, EmbreeError> {
+        Ok(EmbreeAccel {
+            scene: device.build_filtered_triangle_scene(vertices, triangles, quality, filter)?,
         })
     }
 

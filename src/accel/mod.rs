@@ -4,10 +4,10 @@
 pub mod bvh;
 mod embree;
 
-pub use self::bvh::{Bvh, BvhError};
+pub use self::bvh::{Bvh, BvhError, FilteredBvh};
 pub use self::embree::EmbreeAccel;
 
-pub use crate::geometry::{Hit, Ray};
+pub use crate::geometry::{Hit, HitFilter, Opaque, Ray};
 
 /// Which structure answers the ray queries (`ember render --accel`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

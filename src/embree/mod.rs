@@ -3,15 +3,18 @@
 //! It exposes a [`Device`] (with an error callback whose reports become
 //! [`EmbreeError`]s and a memory monitor that measures and can cap what Embree
 //! allocates), and a committed triangle [`Scene`] that answers single rays and 8-wide
-//! packets from any number of threads. The differences between Embree 3 and Embree 4
+//! packets from any number of threads, optionally with a [`HitFilter`] deciding which
+//! intersections are hits (cut-outs, in `filter`). The differences between Embree 3 and Embree 4
 //! (intersection contexts versus argument structs) stay inside this file, selected by
 //! the `embree3`/`embree4` cfg that build.rs emits for the installed headers.
 
 mod direct;
+mod filter;
 mod sys;
 
 pub use direct::{raw_rays, RawRay};
 
+use std::any::Any;
 use std::ffi::{CStr, CString};
 use std::os::raw::{c_char, c_void};
 use std::ptr;
@@ -20,7 +23,7 @@ use std::sync::{Arc, Mutex};
 
 use glam::Vec3;
 
-use crate::geometry::{Hit, Ray};
+use crate::geometry::{Hit, HitFilter, Opaque, Ray};
 
 /// Embree's "no geometry" id, written into `geomID` before a query.
 const INVALID_ID: u32 = u32::MAX;
@@ -298,12 +301,39 @@ impl Device {
         triangles: &[[u32; 3]],
         quality: BuildQuality,
     ) -> Result<Scene, EmbreeError> {
+        self.build_scene(vertices, triangles, quality, None::<Arc<Opaque>>)
+    }
+
+    /// [`Device::build_triangle_scene`] where `filter` decides which intersections are
+    /// hits, in intersection and occlusion queries alike: Embree calls it from the
+    /// geometry's filter functions and traverses on past the hits it rejects. Only
+    /// scenes with cut-outs need this; the others skip the callback entirely.
+    pub fn build_filtered_triangle_scene<F: HitFilter>(
+        &self,
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        quality: BuildQuality,
+        filter: Arc<F>,
+    ) -> Result<Scene, EmbreeError> {
+        self.build_scene(vertices, triangles, quality, Some(filter))
+    }
+
+    fn build_scene<F: HitFilter>(
+        &self,
+        vertices: &[Vec3],
+        triangles: &[[u32; 3]],
+        quality: BuildQuality,
+        filter: Option<Arc<F>>,
+    ) -> Result<Scene, EmbreeError> {
         check_mesh(vertices, triangles)?;
         self.check_buffer_memory(vertices.len(), triangles.len())?;
         let _ = self.take_error();
         let mut scene = self.new_scene(quality)?;
         let before = self.bytes_in_use();
-        let geometry = self.triangle_geometry(vertices, triangles, quality)?;
+        let geometry = self.triangle_geometry(vertices, triangles, quality, filter.as_deref())?;
+        // The scene owns the filter from here: it outlives every query, and the
+        // geometry (whose user data points at it) dies with the scene.
+        scene.filter = filter.map(|f| f as Arc<dyn Any + Send + Sync>);
         // SAFETY: the scene and the geometry are live and on this device; the scene
         // keeps its own reference, so dropping `geometry` right after is fine.
         unsafe { sys::rtcAttachGeometryByID(scene.raw, geometry.0, 0) };
@@ -350,6 +380,7 @@ impl Device {
             raw,
             device: self.clone(),
             bytes: 0,
+            filter: None,
         };
         // SAFETY: `raw` is a live scene, not committed yet.
         let flags = unsafe { sys::rtcGetSceneFlags(raw) };
@@ -360,12 +391,15 @@ impl Device {
         Ok(scene)
     }
 
-    /// A committed triangle geometry holding copies of `vertices` and `triangles`.
-    fn triangle_geometry(
+    /// A committed triangle geometry holding copies of `vertices` and `triangles`, with
+    /// `filter` as its filter functions when there is one. The caller keeps `filter`
+    /// alive as long as any scene holds the geometry.
+    fn triangle_geometry<F: HitFilter>(
         &self,
         vertices: &[Vec3],
         triangles: &[[u32; 3]],
         quality: BuildQuality,
+        filter: Option<&F>,
     ) -> Result<Geometry, EmbreeError> {
         // SAFETY: the device is live.
         let raw = unsafe { sys::rtcNewGeometry(self.handle.raw, sys::RTC_GEOMETRY_TYPE_TRIANGLE) };
@@ -405,6 +439,11 @@ impl Device {
         // SAFETY: as above, `triangles.len()` items at `index_buffer`, which cannot
         // overlap the caller's slice.
         unsafe { ptr::copy_nonoverlapping(triangles.as_ptr(), index_buffer, triangles.len()) };
+        if let Some(filter) = filter {
+            // SAFETY: the geometry is live and not committed; the caller keeps `filter`
+            // alive as long as the geometry can be queried (see `build_scene`).
+            unsafe { filter::install(raw, filter) };
+        }
         // SAFETY: the geometry is live and its buffers are filled.
         unsafe { sys::rtcCommitGeometry(raw) };
         Ok(geometry)
@@ -469,6 +508,10 @@ pub struct Scene {
     device: Device,
     /// Bytes Embree allocated while building it (BVH, triangle copies, buffers).
     bytes: usize,
+    /// The hit filter the geometry's filter functions call, if any. Only owned here
+    /// (the callback reaches it through the geometry's user data); dropped after
+    /// `Drop::drop` has released the scene.
+    filter: Option<Arc<dyn Any + Send + Sync>>,
 }
 
 // SAFETY: a committed RTCScene is immutable and Embree documents that it may be
@@ -558,6 +601,11 @@ impl Scene {
 
     pub fn device(&self) -> &Device {
         &self.device
+    }
+
+    /// Whether a hit filter decides this scene's hits (cut-outs).
+    pub fn is_filtered(&self) -> bool {
+        self.filter.is_some()
     }
 
     /// Nearest hit of one ray.

@@ -7,6 +7,10 @@
 //! Pharr, Jakob & Humphreys, §6.8.6). The bound grows with the coordinates, so the
 //! same scene gives the same image at any scale and any distance from the origin.
 
+mod filter;
+
+pub use filter::{HitFilter, Opaque};
+
 use glam::Vec3;
 
 /// A ray segment: points `origin + t * dir` for `t` in `[tmin, tmax]`.

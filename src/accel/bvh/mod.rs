@@ -1,6 +1,8 @@
 //! ember's native BVH: a 4-wide tree built with the binned SAH ([`build`]), traversed
 //! front to back with four slab tests per node in one auto-vectorised loop, and
-//! watertight ray/triangle tests ([`triangle`]) in the leaves.
+//! watertight ray/triangle tests ([`triangle`]) in the leaves. With a [`HitFilter`]
+//! ([`Bvh::with_filter`]) the leaves ask it about every intersection and traversal goes
+//! on past the ones it rejects (cut-outs), as Embree does with its filter functions.
 
 mod aabb;
 mod build;
@@ -11,6 +13,8 @@ mod sah;
 mod spatial;
 mod triangle;
 
+use std::sync::Arc;
+
 use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 use thiserror::Error;
@@ -19,6 +23,7 @@ use self::aabb::PrimRef;
 use self::node::{Child, Node4, MAX_BLOCKS, MAX_LEAF, WIDTH};
 use self::triangle::{RayShear, TriBlock};
 use super::{Accel, Hit, Ray};
+use crate::geometry::{HitFilter, Opaque};
 
 /// Why a BVH could not be built.
 #[derive(Debug, Error, PartialEq, Eq)]
@@ -198,12 +203,22 @@ impl Bvh {
     }
 }
 
-impl Accel for Bvh {
-    fn name(&self) -> &'static str {
-        "bvh"
+/// A [`Bvh`] whose hits a [`HitFilter`] decides (cut-outs): [`Bvh::with_filter`].
+pub struct FilteredBvh<F: HitFilter> {
+    bvh: Bvh,
+    filter: Arc<F>,
+}
+
+impl Bvh {
+    /// This tree with `filter` deciding which intersections are hits.
+    pub fn with_filter<F: HitFilter>(self, filter: Arc<F>) -> FilteredBvh<F> {
+        FilteredBvh { bvh: self, filter }
     }
 
-    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+    /// The nearest intersection that `filter` accepts. Monomorphised per filter, so
+    /// [`Opaque`] (a compile-time `true`) costs nothing.
+    #[inline(always)]
+    fn intersect_with<F: HitFilter>(&self, ray: &Ray, filter: &F) -> Option<Hit> {
         let boxes = RayBoxes::new(ray);
         let shear = RayShear::new(ray.origin, ray.dir);
         let (tmin, mut tmax) = (ray.tmin, ray.tmax);
@@ -215,8 +230,15 @@ impl Accel for Bvh {
         loop {
             if cur.is_leaf() {
                 for index in cur.range() {
-                    if let Some((lane, t, u, v)) = shear.intersect4(&self.blocks[index], tmin, tmax)
-                    {
+                    let block = &self.blocks[index];
+                    let found = if F::ACCEPTS_ALL {
+                        shear.intersect4(block, tmin, tmax)
+                    } else {
+                        shear.intersect4_filtered(block, tmin, tmax, |lane, u, v| {
+                            filter.accept(block.prim[lane], u, v)
+                        })
+                    };
+                    if let Some((lane, t, u, v)) = found {
                         tmax = t;
                         best = Some((index, lane, u, v));
                     }
@@ -279,7 +301,9 @@ impl Accel for Bvh {
         }
     }
 
-    fn occluded(&self, ray: &Ray) -> bool {
+    /// Whether `filter` accepts any intersection with the segment.
+    #[inline(always)]
+    fn occluded_with<F: HitFilter>(&self, ray: &Ray, filter: &F) -> bool {
         let boxes = RayBoxes::new(ray);
         let shear = RayShear::new(ray.origin, ray.dir);
         let (tmin, tmax) = (ray.tmin, ray.tmax);
@@ -289,7 +313,14 @@ impl Accel for Bvh {
         loop {
             if cur.is_leaf() {
                 for block in &self.blocks[cur.range()] {
-                    if shear.occluded4(block, tmin, tmax) {
+                    let blocked = if F::ACCEPTS_ALL {
+                        shear.occluded4(block, tmin, tmax)
+                    } else {
+                        shear.occluded4_filtered(block, tmin, tmax, |lane, u, v| {
+                            filter.accept(block.prim[lane], u, v)
+                        })
+                    };
+                    if blocked {
                         return true;
                     }
                 }
@@ -323,10 +354,42 @@ impl Accel for Bvh {
             cur = stack[sp];
         }
     }
+}
+
+impl Accel for Bvh {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.intersect_with(ray, &Opaque)
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.occluded_with(ray, &Opaque)
+    }
 
     fn memory_bytes(&self) -> usize {
         self.nodes.len() * std::mem::size_of::<Node4>()
             + self.blocks.len() * std::mem::size_of::<TriBlock>()
+    }
+}
+
+impl<F: HitFilter> Accel for FilteredBvh<F> {
+    fn name(&self) -> &'static str {
+        "bvh"
+    }
+
+    fn intersect(&self, ray: &Ray) -> Option<Hit> {
+        self.bvh.intersect_with(ray, &*self.filter)
+    }
+
+    fn occluded(&self, ray: &Ray) -> bool {
+        self.bvh.occluded_with(ray, &*self.filter)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        self.bvh.memory_bytes()
     }
 }
 

@@ -276,6 +276,57 @@ impl RayShear {
     pub fn occluded4(&self, block: &TriBlock, tmin: f32, tmax: f32) -> bool {
         self.lanes(block, tmin, tmax).hit != [false; 4]
     }
+
+    /// [`RayShear::intersect4`] counting only the intersections `accept(lane, u, v)`
+    /// takes: the nearest accepted one. `accept` is asked only about intersections
+    /// nearer than the best so far.
+    #[inline(always)]
+    pub fn intersect4_filtered(
+        &self,
+        block: &TriBlock,
+        tmin: f32,
+        tmax: f32,
+        accept: impl Fn(usize, f32, f32) -> bool,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let l = self.lanes(block, tmin, tmax);
+        if l.hit == [false; 4] {
+            return None;
+        }
+        let mut best: Option<(usize, f32, f32, f32)> = None;
+        for lane in 0..4 {
+            if !l.hit[lane] {
+                continue;
+            }
+            let t = l.t_scaled[lane] / l.det[lane];
+            if best.is_some_and(|(_, bt, _, _)| t >= bt) {
+                continue;
+            }
+            let inv = 1.0 / l.det[lane];
+            let (u, v) = (l.v[lane] * inv, l.w[lane] * inv);
+            if accept(lane, u, v) {
+                best = Some((lane, t, u, v));
+            }
+        }
+        best
+    }
+
+    /// [`RayShear::occluded4`] counting only the intersections `accept(lane, u, v)` takes.
+    #[inline(always)]
+    pub fn occluded4_filtered(
+        &self,
+        block: &TriBlock,
+        tmin: f32,
+        tmax: f32,
+        accept: impl Fn(usize, f32, f32) -> bool,
+    ) -> bool {
+        let l = self.lanes(block, tmin, tmax);
+        (0..4).any(|lane| {
+            l.hit[lane] && {
+                let inv = 1.0 / l.det[lane];
+                accept(lane, l.v[lane] * inv, l.w[lane] * inv)
+            }
+        })
+    }
 }
 
 #[cfg(test)]
