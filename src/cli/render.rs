@@ -303,22 +303,38 @@ pub fn run(args: RenderArgs) -> Result<ExitCode> {
     let pool = pool.build().context("cannot start worker threads")?;
     let positions = &loaded.scene.mesh.positions;
     let triangles = &loaded.scene.mesh.triangles;
-    // One generic render per backend: the match picks the type, no dynamic dispatch.
+    // Cut-outs, unless EMBER_NO_CUTOUTS=1 turns them off: for measuring what they cost
+    // only (the image is then wrong, though its checkpoint identity is not told).
+    let cutouts = match std::env::var_os("EMBER_NO_CUTOUTS") {
+        Some(v) if v == "1" => None,
+        _ => loaded.scene.opacity(),
+    };
+    // One generic render per backend (and per filter): the match picks the type, no
+    // dynamic dispatch.
     match plan.accel {
         AccelKind::Embree => {
             let device = Device::new(&embree_config(plan.threads))?;
             if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
                 device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
             }
-            let accel = EmbreeAccel::build(&device, positions, triangles, BuildQuality::High)
-                .context("cannot build the Embree scene")?;
+            let quality = BuildQuality::High;
+            let accel = match cutouts {
+                Some(opacity) => {
+                    EmbreeAccel::build_filtered(&device, positions, triangles, quality, opacity)
+                }
+                None => EmbreeAccel::build(&device, positions, triangles, quality),
+            }
+            .context("cannot build the Embree scene")?;
             finish_render(&plan, &loaded, &pool, &accel)
         }
         AccelKind::Bvh => {
-            let accel = pool
+            let bvh = pool
                 .install(|| Bvh::build(positions, triangles))
                 .context("cannot build the native BVH")?;
-            finish_render(&plan, &loaded, &pool, &accel)
+            match cutouts {
+                Some(opacity) => finish_render(&plan, &loaded, &pool, &bvh.with_filter(opacity)),
+                None => finish_render(&plan, &loaded, &pool, &bvh),
+            }
         }
     }
 }

@@ -82,7 +82,15 @@ impl Fingerprint {
             specular,
             emission,
             model,
+            opacity,
+            opacity_map,
         } = m;
+        // Only cut-outs are hashed, so that opaque scenes keep the fingerprint they had
+        // before opacity existed (and their checkpoints stay resumable).
+        if !m.is_opaque() {
+            self.f32s([*opacity]);
+            self.u32s([opacity_map.map_or(u32::MAX, |t| t)]);
+        }
         self.vec3s([diffuse, specular, emission]);
         self.u32s([diffuse_texture.map_or(u32::MAX, |t| t)]);
         match *model {
@@ -126,6 +134,13 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     for t in &scene.textures {
         h.u32s([t.width, t.height]);
         h.vec3s(&t.texels);
+    }
+    if !scene.alpha_maps.is_empty() {
+        h.len(scene.alpha_maps.len());
+        for a in &scene.alpha_maps {
+            h.u32s([a.width, a.height]);
+            h.0.update(&a.texels);
+        }
     }
     h.0.digest()
 }

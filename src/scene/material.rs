@@ -45,6 +45,11 @@ pub struct Material {
     /// `Ke`: emitted radiance.
     pub emission: Vec3,
     pub model: Model,
+    /// `d` (or `1 − Tr`): how much of the surface is there, in `[0, 1]`; 1 is opaque.
+    /// Multiplies `opacity_map`. See [`super::Opacity`].
+    pub opacity: f32,
+    /// `map_d` (or the alpha channel of `map_Kd`): index into the scene's alpha maps.
+    pub opacity_map: Option<u32>,
 }
 
 impl Default for Material {
@@ -57,6 +62,8 @@ impl Default for Material {
             specular: Vec3::ZERO,
             emission: Vec3::ZERO,
             model: Model::Lambert,
+            opacity: 1.0,
+            opacity_map: None,
         }
     }
 }
@@ -106,7 +113,14 @@ impl Material {
             specular: ks,
             emission: ke,
             model,
+            opacity: 1.0,
+            opacity_map: None,
         }
+    }
+
+    /// Whether every point of the surface is there (no cut-outs).
+    pub fn is_opaque(&self) -> bool {
+        self.opacity >= 1.0 && self.opacity_map.is_none()
     }
 
     pub fn is_emissive(&self) -> bool {

@@ -1,20 +1,26 @@
 //! A renderable scene: one triangle mesh, its materials and textures, and the list of
 //! emissive triangles. Immutable once built.
 
+mod alpha;
 mod camera;
 mod material;
 mod mesh;
 mod obj;
+mod opacity;
+mod textures;
 
+pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings};
 pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
+pub use opacity::{coin, Opacity};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
 
 use glam::Vec3;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 use crate::bsdf::Bsdf;
 
@@ -36,12 +42,16 @@ pub enum SceneError {
         obj: PathBuf,
         reason: String,
     },
-    #[error("texture {path} (map_Kd of material {material:?}): {reason}")]
+    #[error("texture {path} ({slot} of material {material:?}): {reason}")]
     Texture {
         path: PathBuf,
+        /// The MTL statement that names it (`map_Kd`, `map_d`).
+        slot: &'static str,
         material: String,
         reason: String,
     },
+    #[error("material {material:?}: {reason}")]
+    Material { material: String, reason: String },
     #[error("{path}: {what} {index} is not finite ({value})")]
     NonFinite {
         path: PathBuf,
@@ -61,6 +71,9 @@ pub struct Scene {
     pub mesh: TriangleMesh,
     pub materials: Vec<Material>,
     pub textures: Vec<Texture>,
+    /// Opacity maps of the materials' cut-outs (`Material::opacity_map`), shared with
+    /// the accelerator's [`Opacity`] filter.
+    pub alpha_maps: Vec<Arc<AlphaMap>>,
     /// Indices of the triangles whose material emits.
     pub emitters: Vec<u32>,
     /// Radiance arriving from every direction where rays leave the scene (a uniform
@@ -78,6 +91,7 @@ impl Scene {
             mesh,
             materials,
             textures,
+            alpha_maps: Vec::new(),
             emitters,
             background: Vec3::ZERO,
         }
@@ -109,6 +123,11 @@ impl Scene {
             Vec3::ZERO
         };
         material.bsdf(albedo, surface.ns, surface.ng)
+    }
+
+    /// The hit filter of the scene's cut-outs, or `None` when every material is opaque.
+    pub fn opacity(&self) -> Option<Arc<Opacity>> {
+        Opacity::of(self)
     }
 
     pub fn bounds(&self) -> (Vec3, Vec3) {

@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use super::{Material, MtlValues, Scene, SceneError, Texture, TriangleMesh};
+use super::textures::TextureLoader;
+use super::{Material, MtlValues, Scene, SceneError, TriangleMesh};
 
 /// Facts about a load worth telling the user.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -174,14 +175,6 @@ impl Sources<'_> {
             },
         }
     }
-
-    /// The directory named in error messages for a missing texture.
-    fn dir(&self) -> &Path {
-        match self {
-            Sources::Disk { dir } => dir,
-            Sources::Memory { .. } => Path::new(""),
-        }
-    }
 }
 
 /// Most bytes of memory one byte of OBJ text costs while loading and building: the text
@@ -246,7 +239,6 @@ fn load_obj_text(
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
     let text = &strip_comments(text);
-    let dir = sources.dir().to_path_buf();
     // tobj hands us each `mtllib` name; we read it ourselves so that a missing or
     // broken library is an error naming the file, not a silently grey scene.
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
@@ -305,41 +297,22 @@ fn load_obj_text(
     })?;
 
     let mut report = LoadReport::default();
-    let mut textures = Vec::new();
-    let mut texture_ids: HashMap<PathBuf, u32> = HashMap::new();
     // In memory there is no directory to search: every texture is "not found".
     let mut search_dirs = Vec::new();
     if let Sources::Disk { dir } = sources {
         search_dirs.push(dir.clone());
         search_dirs.extend(mtl_dirs.into_inner());
     }
+    let mut loader = TextureLoader::new(search_dirs);
+    let mut zero_opacity = Vec::new();
     let mut materials = Vec::with_capacity(tobj_materials.len() + 1);
     for m in &tobj_materials {
-        let texture = match &m.diffuse_texture {
+        let (texture, kd_alpha) = match &m.diffuse_texture {
             Some(name) => {
-                let file = find_texture(name, &search_dirs).ok_or_else(|| SceneError::Texture {
-                    path: dir.join(name),
-                    material: m.name.clone(),
-                    reason: "file not found".into(),
-                })?;
-                let id = match texture_ids.get(&file) {
-                    Some(&id) => id,
-                    None => {
-                        let texture =
-                            load_texture(&file).map_err(|reason| SceneError::Texture {
-                                path: file.clone(),
-                                material: m.name.clone(),
-                                reason,
-                            })?;
-                        textures.push(texture);
-                        let id = textures.len() as u32 - 1;
-                        texture_ids.insert(file, id);
-                        id
-                    }
-                };
-                Some(id)
+                let (texture, alpha) = loader.diffuse(name, &m.name)?;
+                (Some(texture), alpha)
             }
-            None => None,
+            None => (None, None),
         };
         let values = MtlValues {
             kd: m.diffuse.map(vec3),
@@ -349,16 +322,6 @@ fn load_obj_text(
             ni: m.optical_density,
             illum: m.illumination_model,
         };
-        let tr: Option<f32> = m
-            .unknown_param
-            .get("Tr")
-            .and_then(|t| t.trim().parse().ok());
-        if m.dissolve.is_some_and(|d| d < 1.0) || tr.is_some_and(|t| t > 0.0) {
-            report.warnings.push(format!(
-                "material {:?}: opacity (`d`/`Tr`) is not supported yet and is ignored: the surface renders opaque",
-                m.name
-            ));
-        }
         let check = [values.kd, values.ks, values.ke]
             .into_iter()
             .flatten()
@@ -369,8 +332,29 @@ fn load_obj_text(
                 reason: format!("material {:?} has a non-finite colour", m.name),
             });
         }
-        materials.push(Material::from_mtl(&m.name, &values, texture));
+        let mut material = Material::from_mtl(&m.name, &values, texture);
+        material.opacity = match opacity_constant(m)? {
+            Some(0.0) => {
+                zero_opacity.push(m.name.clone());
+                1.0
+            }
+            d => d.unwrap_or(1.0),
+        };
+        // An explicit `map_d` wins over the alpha channel of `map_Kd`.
+        material.opacity_map = match &m.dissolve_texture {
+            Some(name) => Some(loader.opacity(name, &m.name)?),
+            None => kd_alpha,
+        };
+        materials.push(material);
     }
+    if !zero_opacity.is_empty() {
+        report.warnings.push(zero_opacity_warning(&zero_opacity));
+    }
+    let TextureLoader {
+        textures,
+        alpha_maps,
+        ..
+    } = loader;
     // Faces without a (known) material use a matte grey at the end of the list.
     let default_material = materials.len() as u32;
     materials.push(Material::default());
@@ -467,7 +451,8 @@ fn load_obj_text(
         );
     }
 
-    let scene = Scene::new(mesh, materials, textures);
+    let mut scene = Scene::new(mesh, materials, textures);
+    scene.alpha_maps = alpha_maps;
     report.triangles = scene.mesh.triangles.len();
     report.vertices = scene.mesh.positions.len();
     report.materials = tobj_materials.len();
@@ -500,42 +485,50 @@ fn non_finite(path: &Path, what: &'static str, index: usize, value: Vec3) -> Sce
     }
 }
 
-/// Finds a `map_Kd` file next to the OBJ or one of its MTL files. Options before the
-/// file name (`-s 1 1 1 wood.png`) are skipped by trying the last word too.
-fn find_texture(name: &str, dirs: &[PathBuf]) -> Option<PathBuf> {
-    let name = name.trim();
-    let last_word = name.split_whitespace().last().unwrap_or(name);
-    let normalized = |n: &str| n.replace('\\', "/");
-    [name, last_word]
-        .iter()
-        .flat_map(|n| dirs.iter().map(move |d| d.join(normalized(n))))
-        .find(|p| p.is_file())
+/// A material's constant opacity: `d`, else `1 − Tr` (`d` wins when both are given,
+/// as in tinyobjloader), else `None`. A value outside [0, 1] is an error.
+fn opacity_constant(m: &tobj::Material) -> Result<Option<f32>, SceneError> {
+    let bad = |reason: String| SceneError::Material {
+        material: m.name.clone(),
+        reason,
+    };
+    let tr = match m.unknown_param.get("Tr") {
+        Some(text) => {
+            let word = text.split_whitespace().next().unwrap_or("");
+            let tr: f32 = word
+                .parse()
+                .map_err(|_| bad(format!("Tr {text:?} is not a number")))?;
+            Some((tr, 1.0 - tr))
+        }
+        None => None,
+    };
+    let (statement, value, opacity) = match (m.dissolve, tr) {
+        (Some(d), _) => ("d", d, d),
+        (None, Some((tr, opacity))) => ("Tr", tr, opacity),
+        (None, None) => return Ok(None),
+    };
+    if !(0.0..=1.0).contains(&value) {
+        return Err(bad(format!(
+            "{statement} {value} is outside [0, 1] (0 is transparent for d, opaque for Tr)"
+        )));
+    }
+    Ok(Some(opacity))
 }
 
-/// Decodes an image into linear RGB (see `Film::from_image`).
-fn load_texture(path: &Path) -> Result<Texture, String> {
-    let image = image::ImageReader::open(path)
-        .map_err(|e| e.to_string())?
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
-        .decode()
-        .map_err(|e| e.to_string())?;
-    // The decoder caps its own allocation (the image crate's default limit, 512 MiB);
-    // the linear copies below take up to 24 bytes per texel on top.
-    let texels = u64::from(image.width()) * u64::from(image.height());
-    crate::limits::check_fits(
-        &format!("a {}x{} texture", image.width(), image.height()),
-        texels * 24,
-    )?;
-    let film = crate::image::Image::from_image(image);
-    if film.width == 0 || film.height == 0 {
-        return Err("image is empty".into());
-    }
-    Ok(Texture {
-        width: film.width,
-        height: film.height,
-        texels: film.pixels,
-    })
+/// The one warning for materials whose `d 0` (or `Tr 1`) ember renders opaque.
+fn zero_opacity_warning(names: &[String]) -> String {
+    let shown: Vec<&str> = names.iter().take(3).map(String::as_str).collect();
+    let more = match names.len() {
+        n if n > 3 => format!(" and {} more", n - 3),
+        _ => String::new(),
+    };
+    format!(
+        "{} material(s) ({}{more}) say `d 0` or `Tr 1`, fully transparent; many exporters \
+         write that meaning opaque, so, like obj2gltf, ember renders them opaque \
+         (use `d 0.001` for an almost invisible surface)",
+        names.len(),
+        shown.join(", ")
+    )
 }
 
 #[cfg(test)]
