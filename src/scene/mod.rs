@@ -13,10 +13,10 @@ pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings};
 pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
-pub use opacity::{coin, Opacity};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
+pub use opacity::{coin, Opacity};
 
 use glam::Vec3;
 use std::path::PathBuf;

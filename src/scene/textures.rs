@@ -35,7 +35,11 @@ impl TextureLoader {
 
     /// A `map_Kd`: the index of its colour texture, and of its alpha channel as an
     /// alpha map when it has a non-opaque one.
-    pub fn diffuse(&mut self, name: &str, material: &str) -> Result<(u32, Option<u32>), SceneError> {
+    pub fn diffuse(
+        &mut self,
+        name: &str,
+        material: &str,
+    ) -> Result<(u32, Option<u32>), SceneError> {
         let file = self.find(name, "map_Kd", material)?;
         if let Some(&ids) = self.texture_ids.get(&file) {
             return Ok(ids);
@@ -66,7 +70,8 @@ impl TextureLoader {
             return Ok(id);
         }
         let image = decode(&key.0, 4).map_err(|reason| error(&key.0, "map_d", material, reason))?;
-        self.alpha_maps.push(Arc::new(AlphaMap::from_opacity_image(&image)));
+        self.alpha_maps
+            .push(Arc::new(AlphaMap::from_opacity_image(&image)));
         let id = self.alpha_maps.len() as u32 - 1;
         self.alpha_ids.insert(key, id);
         Ok(id)
