@@ -117,15 +117,10 @@ newmtl plastic\nKd 0.5 0.5 0.5\nKs 0.1 0.1 0.1\nNs 200\n";
             alpha: (2.0f32 / 202.0).sqrt()
         }
     );
-    // `d` < 1 is opacity, not glass: ignored for now, with a warning.
-    assert!(
-        report
-            .warnings
-            .iter()
-            .any(|w| w.contains("\"glass\"") && w.contains("opacity")),
-        "{:?}",
-        report.warnings
-    );
+    // `d` < 1 is opacity (a cut-out), not glass; the other materials are opaque.
+    assert_eq!(by_tri[3].opacity, 0.1);
+    assert!(by_tri.iter().filter(|m| !m.is_opaque()).count() == 1);
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
     assert_eq!(by_tri[5].name, "default");
 }
 
