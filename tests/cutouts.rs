@@ -51,8 +51,11 @@ fn loaded(mtl: &str, files: &[(&str, image::DynamicImage)]) -> Scene {
     scene(mtl, files).expect("scene loads")
 }
 
+/// The native BVH's answers for a ray: (occluded, intersected).
+type BvhQuery = Box<dyn Fn(&Ray) -> (bool, bool)>;
+
 /// The two backends over `scene`, each with its cut-out filter when it has one.
-fn backends(scene: &Scene) -> (EmbreeAccel, Box<dyn Fn(&Ray) -> (bool, bool)>) {
+fn backends(scene: &Scene) -> (EmbreeAccel, BvhQuery) {
     let device = Device::new("").unwrap();
     let (v, t) = (&scene.mesh.positions, &scene.mesh.triangles);
     let q = BuildQuality::High;
