@@ -15,12 +15,12 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg};
+use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::{shard_samples, Film};
-use ember::image;
+use ember::image::{self, Tonemap};
 use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, Camera, CameraSettings, LoadReport, Scene};
 
@@ -91,6 +91,8 @@ pub struct RenderArgs {
     /// either (up to floating-point ties).
     #[arg(long, value_enum, default_value_t = AccelArg::Embree)]
     accel: AccelArg,
+    #[command(flatten)]
+    tone: ToneArgs,
 }
 
 fn default_output(scene: &Path) -> PathBuf {
@@ -158,6 +160,7 @@ struct RenderPlan {
     settings: RenderSettings,
     camera: CameraRequest,
     background: Option<Vec3>,
+    tonemap: Tonemap,
     shard: Option<(u32, u32)>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
@@ -197,6 +200,7 @@ impl RenderPlan {
                 fov: args.fov,
             },
             background: args.background,
+            tonemap: args.tone.into(),
             shard: args.shard,
             samples,
         }
@@ -367,7 +371,8 @@ fn finish_render<A: Accel>(
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
         if plan.shard.is_none() {
-            film.resolve().save(&partial_output(&plan.output))?;
+            film.resolve()
+                .save_with(&partial_output(&plan.output), &plan.tonemap)?;
         }
         save_checkpoint(&film)?;
         report_interrupted(plan, &film, signal);
@@ -376,7 +381,7 @@ fn finish_render<A: Accel>(
     if plan.shard.is_some() {
         save_checkpoint(&film)?;
     } else {
-        film.resolve().save(&plan.output)?;
+        film.resolve().save_with(&plan.output, &plan.tonemap)?;
         if plan.checkpoint_every.is_some() || plan.resume {
             // Keep the final state: a later --resume with a higher --spp refines it.
             save_checkpoint(&film)?;
