@@ -38,7 +38,11 @@ pub fn identity(
         ("eye", v(camera.eye)),
         ("look-at", v(camera.look_at)),
         ("up", v(camera.up)),
-        ("background", v(scene.background)),
+        // The sky's values are part of the scene hash.
+        (
+            "sky",
+            if scene.sky.is_some() { "map" } else { "none" }.to_string(),
+        ),
         // The backends may break floating-point ties differently.
         ("accel", format!("{accel:?}").to_lowercase()),
         ("algorithm", ALGORITHM_VERSION.to_string()),
@@ -126,6 +130,9 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     for t in &scene.textures {
         h.u32s([t.width, t.height]);
         h.vec3s(&t.texels);
+    }
+    if let Some(sky) = &scene.sky {
+        h.u32s(sky.identity_words());
     }
     h.0.digest()
 }
