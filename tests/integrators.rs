@@ -13,9 +13,12 @@ use ember::image::{compare_pixels, Image, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::render::pixel_sample;
 use ember::sampling::{uniform_sphere, Rng};
-use ember::scene::{load_obj, Camera, CameraSettings, Material, Model, MtlValues, Scene};
+use ember::scene::{
+    load_obj, Camera, CameraSettings, Environment, Material, Model, MtlValues, Scene,
+};
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
+use std::sync::Arc;
 
 const ALL: [IntegratorKind; 4] = [
     IntegratorKind::Bsdf,
@@ -398,7 +401,7 @@ fn uniform_sky_over_a_diffuse_triangle() {
         )],
         vec![diffuse(albedo, Vec3::ZERO)],
     );
-    built.scene.background = sky;
+    built.scene.sky = Some(Arc::new(Environment::constant(sky)));
     for kind in ALL {
         let tracer = PathTracer::new(&built.scene, &built.accel, 8, kind);
         let mut count = RayCount::default();
@@ -478,7 +481,7 @@ fn convex_objects_under_a_white_sky_are_never_brighter_than_it() {
             .map(|([a, b, c], m)| ([a, c, b], m))
             .collect();
         let mut built = build(&cube, vec![material]);
-        built.scene.background = Vec3::ONE;
+        built.scene.sky = Some(Arc::new(Environment::constant(Vec3::ONE)));
         for kind in ALL {
             let tracer = PathTracer::new(&built.scene, &built.accel, 64, kind);
             for (i, &(from, to)) in rays.iter().enumerate() {

@@ -10,7 +10,9 @@ use common::stats::{bin_integrals, check_density, monte_carlo, Binning, Density}
 use common::{build, diffuse, quad, Built};
 use ember::accel::{Accel, Ray};
 use ember::bsdf::Bsdf;
-use ember::sampling::{uniform_sphere, BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf, Rng};
+use ember::sampling::{
+    uniform_sphere, BsdfPdf, LightPdf, LightSampler, LightTarget, MixturePdf, Pdf, Rng,
+};
 use glam::Vec3;
 
 #[test]
@@ -221,7 +223,7 @@ fn light_value_equals_the_density_of_the_draw() {
                 continue;
             };
             let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, sample.dir));
-            if hit.is_some_and(|h| h.prim == sample.prim) {
+            if hit.is_some_and(|h| LightTarget::Emitter(h.prim) == sample.target) {
                 let v = pdf.value(sample.dir, hit.as_ref());
                 assert!(
                     (v - sample.pdf).abs() <= 1e-3 * sample.pdf,

@@ -22,6 +22,8 @@ pub struct MergeArgs {
     /// only noisier). The missing ranges are listed.
     #[arg(long)]
     allow_partial: bool,
+    #[command(flatten)]
+    tone: super::ToneArgs,
 }
 
 pub fn run(args: MergeArgs) -> Result<()> {
@@ -40,7 +42,7 @@ pub fn run(args: MergeArgs) -> Result<()> {
             path.display()
         );
     }
-    film.resolve().save(&args.output)?;
+    film.resolve().save_with(&args.output, &args.tone.into())?;
     eprintln!(
         "merged {} shards ({}x{}, {} spp) into {} in {:.2} s",
         args.shards.len(),

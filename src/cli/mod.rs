@@ -108,3 +108,50 @@ pub fn parse_fov(s: &str) -> Result<f32, String> {
         Err(format!("{v} is not between 0 and 180 degrees (exclusive)"))
     }
 }
+
+/// `--tonemap`: the curve 8-bit outputs go through.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ToneCurveArg {
+    /// sRGB, clipped at 1.
+    Clip,
+    /// The ACES filmic curve (Narkowicz's fit).
+    Aces,
+    /// Troy Sobotka's AgX, default look.
+    Agx,
+}
+
+/// How PNG outputs are made from linear radiance (EXR and HDR stay linear).
+#[derive(Clone, Copy, Debug, clap::Args)]
+pub struct ToneArgs {
+    /// Exposure in stops applied before the tone curve (PNG only).
+    #[arg(long, value_name = "EV", default_value_t = 0.0, value_parser = parse_exposure, allow_hyphen_values = true)]
+    pub exposure: f32,
+    /// The tone curve for PNG output.
+    #[arg(long, value_enum, default_value_t = ToneCurveArg::Clip)]
+    pub tonemap: ToneCurveArg,
+}
+
+impl From<ToneArgs> for ember::image::Tonemap {
+    fn from(args: ToneArgs) -> Self {
+        use ember::image::ToneCurve;
+        ember::image::Tonemap {
+            exposure: args.exposure,
+            curve: match args.tonemap {
+                ToneCurveArg::Clip => ToneCurve::Clip,
+                ToneCurveArg::Aces => ToneCurve::Aces,
+                ToneCurveArg::Agx => ToneCurve::Agx,
+            },
+        }
+    }
+}
+
+fn parse_exposure(s: &str) -> Result<f32, String> {
+    let ev: f32 = s
+        .trim()
+        .parse()
+        .map_err(|_| format!("{s:?} is not a number of stops"))?;
+    if !ev.is_finite() || ev.abs() > 64.0 {
+        return Err(format!("{s}: exposure must be between -64 and 64 stops"));
+    }
+    Ok(ev)
+}

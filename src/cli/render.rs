@@ -15,14 +15,14 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg};
+use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::{shard_samples, Film};
-use ember::image;
+use ember::image::{self, Tonemap};
 use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
-use ember::scene::{load_obj, Camera, CameraSettings, LoadReport, Scene};
+use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -70,8 +70,19 @@ pub struct RenderArgs {
     fov: f32,
     /// Radiance of a uniform sky behind the scene, R,G,B [default: 0,0,0, or 1,1,1
     /// when the scene has no emissive material, so that it is not rendered black].
-    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true)]
+    #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "env")]
     background: Option<Vec3>,
+    /// Light the scene with an equirectangular environment map (EXR or HDR, linear
+    /// radiance; row 0 is up, the middle column looks along −z), importance-sampled
+    /// as a light.
+    #[arg(long, value_name = "FILE")]
+    env: Option<PathBuf>,
+    /// Multiplies the environment map's radiance.
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0, value_parser = parse_env_scale, requires = "env")]
+    env_scale: f32,
+    /// Turns the environment map about the up (+y) axis, counter-clockwise seen from above.
+    #[arg(long, value_name = "DEGREES", default_value_t = 0.0, value_parser = parse_degrees, allow_hyphen_values = true, requires = "env")]
+    env_rotate: f32,
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     integrator: IntegratorArg,
@@ -91,6 +102,8 @@ pub struct RenderArgs {
     /// either (up to floating-point ties).
     #[arg(long, value_enum, default_value_t = AccelArg::Embree)]
     accel: AccelArg,
+    #[command(flatten)]
+    tone: ToneArgs,
 }
 
 fn default_output(scene: &Path) -> PathBuf {
@@ -158,6 +171,8 @@ struct RenderPlan {
     settings: RenderSettings,
     camera: CameraRequest,
     background: Option<Vec3>,
+    env: Option<EnvRequest>,
+    tonemap: Tonemap,
     shard: Option<(u32, u32)>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
@@ -197,6 +212,12 @@ impl RenderPlan {
                 fov: args.fov,
             },
             background: args.background,
+            env: args.env.map(|path| EnvRequest {
+                path,
+                scale: args.env_scale,
+                rotate: args.env_rotate,
+            }),
+            tonemap: args.tone.into(),
             shard: args.shard,
             samples,
         }
@@ -252,7 +273,28 @@ impl RenderPlan {
     }
 }
 
-/// The scene with its background set, and the camera that frames it.
+/// `--env` and its scale and rotation.
+struct EnvRequest {
+    path: PathBuf,
+    scale: f32,
+    rotate: f32,
+}
+
+fn parse_env_scale(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
+    }
+}
+
+fn parse_degrees(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() => Ok(v),
+        _ => Err(format!("{s:?} is not an angle in degrees")),
+    }
+}
+
+/// The scene with its sky set, and the camera that frames it.
 struct LoadedScene {
     scene: Scene,
     report: LoadReport,
@@ -263,12 +305,14 @@ struct LoadedScene {
 
 fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let (mut scene, report) = load_obj(&plan.scene)?;
-    let unlit = scene.emitters.is_empty() && plan.background.is_none();
-    scene.background = match plan.background {
-        Some(b) => b,
-        None if unlit => Vec3::ONE,
-        None => Vec3::ZERO,
-    };
+    let unlit = scene.emitters.is_empty() && plan.background.is_none() && plan.env.is_none();
+    scene.sky = match (&plan.env, plan.background) {
+        (Some(env), _) => Some(Environment::load(&env.path, env.scale, env.rotate)?),
+        (None, Some(b)) if b != Vec3::ZERO => Some(Environment::constant(b)),
+        (None, None) if unlit => Some(Environment::constant(Vec3::ONE)),
+        _ => None,
+    }
+    .map(Arc::new);
     let (lo, hi) = scene.bounds();
     let request = &plan.camera;
     let framing = CameraSettings::framing(lo, hi, request.fov);
@@ -383,7 +427,8 @@ fn finish_render<A: Accel>(
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
         if plan.shard.is_none() {
-            film.resolve().save(&partial_output(&plan.output))?;
+            film.resolve()
+                .save_with(&partial_output(&plan.output), &plan.tonemap)?;
         }
         save_checkpoint(&film)?;
         report_interrupted(plan, &film, signal);
@@ -392,7 +437,7 @@ fn finish_render<A: Accel>(
     if plan.shard.is_some() {
         save_checkpoint(&film)?;
     } else {
-        film.resolve().save(&plan.output)?;
+        film.resolve().save_with(&plan.output, &plan.tonemap)?;
         if plan.checkpoint_every.is_some() || plan.resume {
             // Keep the final state: a later --resume with a higher --spp refines it.
             save_checkpoint(&film)?;

@@ -1,10 +1,12 @@
 //! Images: a buffer of linear `f32` RGB pixels and its codecs. PNG is written as 8-bit
-//! sRGB, EXR and HDR as linear radiance; any format the `image` crate reads (textures,
+//! sRGB through a tone map ([`Tonemap`]), EXR and HDR as linear radiance; any format the `image` crate reads (textures,
 //! references) is decoded to linear RGB. Files appear whole or not at all ([`crate::io`]).
 
 mod compare;
+mod tonemap;
 
 pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+pub use tonemap::{ToneCurve, Tonemap};
 
 use std::path::{Path, PathBuf};
 
@@ -96,21 +98,29 @@ impl Image {
         Rgb32FImage::from_raw(self.width, self.height, data).expect("image size matches its pixels")
     }
 
-    fn to_srgb8(&self) -> RgbImage {
-        let data = self
-            .pixels
-            .iter()
-            .flat_map(|p| p.to_array())
-            .map(|c| (linear_to_srgb(c) * 255.0 + 0.5) as u8)
-            .collect();
+    fn to_srgb8(&self, tonemap: &Tonemap) -> RgbImage {
+        let data = self.pixels.iter().flat_map(|&p| tonemap.to_u8(p)).collect();
         RgbImage::from_raw(self.width, self.height, data).expect("image size matches its pixels")
     }
 
-    /// Encodes the image in `format` into memory.
+    /// Encodes the image in `format` into memory (8-bit formats through the default
+    /// tone map: sRGB, clipped).
     pub fn encode(&self, format: OutputFormat) -> Result<Vec<u8>, ::image::ImageError> {
+        self.encode_with(format, &Tonemap::default())
+    }
+
+    /// Encodes the image in `format`, 8-bit formats through `tonemap` (EXR and HDR
+    /// stay linear).
+    pub fn encode_with(
+        &self,
+        format: OutputFormat,
+        tonemap: &Tonemap,
+    ) -> Result<Vec<u8>, ::image::ImageError> {
         let mut bytes = std::io::Cursor::new(Vec::new());
         match format {
-            OutputFormat::Png => self.to_srgb8().write_to(&mut bytes, ImageFormat::Png)?,
+            OutputFormat::Png => self
+                .to_srgb8(tonemap)
+                .write_to(&mut bytes, ImageFormat::Png)?,
             OutputFormat::Exr => self
                 .to_rgb32f()
                 .write_to(&mut bytes, ImageFormat::OpenExr)?,
@@ -121,8 +131,13 @@ impl Image {
 
     /// Writes the image to `path` in the format its extension names, atomically.
     pub fn save(&self, path: &Path) -> Result<(), ImageFileError> {
+        self.save_with(path, &Tonemap::default())
+    }
+
+    /// [`save`](Self::save), 8-bit formats through `tonemap`.
+    pub fn save_with(&self, path: &Path, tonemap: &Tonemap) -> Result<(), ImageFileError> {
         let format = OutputFormat::from_path(path)?;
-        let bytes = self.encode(format).map_err(|e| WriteError {
+        let bytes = self.encode_with(format, tonemap).map_err(|e| WriteError {
             path: path.to_owned(),
             reason: e.to_string(),
         })?;

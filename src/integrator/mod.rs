@@ -112,7 +112,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             accel,
             max_depth,
             kind,
-            lights: LightSampler::new(&scene.mesh, &scene.materials),
+            lights: LightSampler::new(&scene.mesh, &scene.materials)
+                .with_sky(scene.sky.clone(), scene.bounding_radius()),
         }
     }
 
@@ -134,8 +135,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut hit = self.trace(&ray, count);
         for segment in 1..=self.max_depth {
             let Some(current) = hit else {
-                // The sky: never sampled by the light strategies, so it counts in full.
-                radiance += throughput * self.scene.background;
+                radiance += throughput * self.sky(ray.dir, emission_weight);
                 break;
             };
             rng.start_vertex(segment);
@@ -214,6 +214,21 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         material.emission * weight
     }
 
+    /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
+    /// chosen (the sky is a light: next-event estimation samples it too).
+    #[inline]
+    fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
+        let weight = match how {
+            EmissionWeight::Full => 1.0,
+            EmissionWeight::Skip => 0.0,
+            EmissionWeight::Mis { bsdf_pdf } => power_heuristic(bsdf_pdf, self.lights.pdf_sky(dir)),
+        };
+        if weight == 0.0 {
+            return Vec3::ZERO;
+        }
+        self.scene.sky_radiance(dir) * weight
+    }
+
     /// Follows the BSDF's own sample. A `Mis` emission weight is completed with the
     /// sample's density; a delta sample's next emission always counts in full.
     #[inline]
@@ -265,10 +280,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         count.rays += 1;
-        if self
-            .accel
-            .occluded(&surface.origin().spawn_to(&light.point))
-        {
+        let shadow = match &light.point {
+            Some(point) => surface.origin().spawn_to(point),
+            None => surface.origin().spawn(light.dir),
+        };
+        if self.accel.occluded(&shadow) {
             return Vec3::ZERO;
         }
         let weight = if mis {

@@ -13,7 +13,7 @@ use crate::scene::{CameraSettings, Material, Model, Scene};
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-pub const ALGORITHM_VERSION: u32 = 2;
+pub const ALGORITHM_VERSION: u32 = 3;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
@@ -38,7 +38,11 @@ pub fn identity(
         ("eye", v(camera.eye)),
         ("look-at", v(camera.look_at)),
         ("up", v(camera.up)),
-        ("background", v(scene.background)),
+        // The sky's values are part of the scene hash.
+        (
+            "sky",
+            if scene.sky.is_some() { "map" } else { "none" }.to_string(),
+        ),
         // The backends may break floating-point ties differently.
         ("accel", format!("{accel:?}").to_lowercase()),
         ("algorithm", ALGORITHM_VERSION.to_string()),
@@ -141,6 +145,9 @@ pub fn scene_hash(scene: &Scene) -> u64 {
             h.u32s([a.width, a.height]);
             h.0.update(&a.texels);
         }
+    }
+    if let Some(sky) = &scene.sky {
+        h.u32s(sky.identity_words());
     }
     h.0.digest()
 }

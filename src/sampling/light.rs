@@ -13,10 +13,13 @@
 
 use glam::Vec3;
 
+use std::f32::consts::PI;
+use std::sync::Arc;
+
 use super::{uniform_triangle, AliasTable, Rng};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
-use crate::scene::{Material, TriangleMesh};
+use crate::scene::{Environment, Material, TriangleMesh};
 
 /// The scene's emitters with a power-proportional distribution over them.
 #[derive(Clone, Debug, Default)]
@@ -30,6 +33,19 @@ pub struct LightSampler {
     /// Where the emitters are and which way they face, to tell cheaply which points
     /// no emitter can light (see [`may_light`](Self::may_light)).
     bounds: EmitterBounds,
+    /// Light from infinitely far away, chosen with probability `sky_probability`
+    /// instead of an emitter.
+    sky: Option<Arc<Environment>>,
+    sky_probability: f32,
+}
+
+/// What a light sample is aimed at.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightTarget {
+    /// A point on this emissive triangle.
+    Emitter(u32),
+    /// The environment: the direction must leave the scene.
+    Sky,
 }
 
 /// A box around every emitter and a cone around every emitter's normal.
@@ -107,12 +123,12 @@ pub struct LightSample {
     /// Distance from the shading point to the light point.
     pub distance: f32,
     /// The light point itself, with its rounding error and the light's normal (for
-    /// the far end of a shadow ray).
-    pub point: SurfaceOrigin,
+    /// the far end of a shadow ray); `None` for the sky, which is at infinity.
+    pub point: Option<SurfaceOrigin>,
     /// Solid-angle density with which `dir` was chosen (> 0).
     pub pdf: f32,
-    /// Global triangle index of the chosen emitter.
-    pub prim: u32,
+    /// The chosen emitter, or the sky.
+    pub target: LightTarget,
     /// Radiance the light point emits towards the shading point.
     pub emission: Vec3,
 }
@@ -150,7 +166,39 @@ impl LightSampler {
             bounds: EmitterBounds::new(&emitters),
             emitters,
             table,
+            sky: None,
+            sky_probability: 0.0,
         }
+    }
+
+    /// Adds the environment `sky` as a light, chosen against the emitters in
+    /// proportion to estimated power: the emitters' `π Σ A·lum(Ke)` against the sky's
+    /// `∫ lum(L) dω` through a disc of the scene's bounding radius, `π r²`.
+    pub fn with_sky(mut self, sky: Option<Arc<Environment>>, scene_radius: f32) -> Self {
+        let Some(sky) = sky.filter(|s| !s.is_black()) else {
+            return self;
+        };
+        let emitter_power: f32 = PI
+            * self
+                .emitters
+                .iter()
+                .map(|e| {
+                    let [a, b, c] = e.vertices;
+                    0.5 * (b - a).cross(c - a).length() * luminance(e.emission)
+                })
+                .sum::<f32>();
+        let sky_power = sky.luminous_intensity() * PI * scene_radius.max(1e-6).powi(2);
+        let p = if self.table.is_none() {
+            1.0
+        } else {
+            (sky_power / (sky_power + emitter_power)).clamp(0.05, 0.95)
+        };
+        for e in &mut self.emitters {
+            e.area_density *= 1.0 - p;
+        }
+        self.sky = Some(sky);
+        self.sky_probability = p;
+        self
     }
 
     /// Whether some emitter might light point `p`, that is have `p` on its emitting
@@ -166,6 +214,9 @@ impl LightSampler {
     #[inline]
     pub fn may_light(&self, p: Vec3) -> bool {
         let b = &self.bounds;
+        if self.sky.is_some() {
+            return true;
+        }
         if self.table.is_none() {
             return false;
         }
@@ -186,7 +237,7 @@ impl LightSampler {
 
     /// Whether there is anything to sample.
     pub fn is_empty(&self) -> bool {
-        self.table.is_none()
+        self.table.is_none() && self.sky.is_none()
     }
 
     /// Number of emissive triangles that can be chosen or hit.
@@ -213,10 +264,16 @@ impl LightSampler {
     /// lights or the chosen point faces away from `origin` (a sample worth nothing).
     #[inline]
     pub fn sample(&self, origin: Vec3, rng: &mut Rng) -> Option<LightSample> {
-        let table = self.table.as_ref()?;
-        // One 2-D draw chooses the emitter and the point on it (see AliasTable::sample).
+        // One 2-D draw chooses the sky or an emitter, and the point on it (see
+        // AliasTable::sample).
         let (u1, u2) = rng.pair();
-        let (i, u1) = table.sample(rng.refine(u1));
+        if u1 < self.sky_probability {
+            let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
+            return self.sample_sky(rng.refine(u1), rng.refine(u2));
+        }
+        let u1 = (u1 - self.sky_probability) / (1.0 - self.sky_probability);
+        let table = self.table.as_ref()?;
+        let (i, u1) = table.sample(rng.refine(u1.min(ONE_BELOW)));
         let emitter = &self.emitters[i];
         let (b1, b2) = uniform_triangle(u1, u2);
         let b = [1.0 - b1 - b2, b1, b2];
@@ -240,15 +297,36 @@ impl LightSampler {
         Some(LightSample {
             dir,
             distance,
-            point: SurfaceOrigin {
+            point: Some(SurfaceOrigin {
                 p: point,
                 error: barycentric_error(b, emitter.vertices),
                 ng: emitter.normal,
-            },
+            }),
             pdf,
-            prim: self.prims[i],
+            target: LightTarget::Emitter(self.prims[i]),
             emission: emitter.emission,
         })
+    }
+
+    fn sample_sky(&self, u_row: f64, u_column: f64) -> Option<LightSample> {
+        let sample = self.sky.as_ref()?.sample(u_row, u_column)?;
+        Some(LightSample {
+            dir: sample.dir,
+            distance: f32::INFINITY,
+            point: None,
+            pdf: self.sky_probability * sample.pdf,
+            target: LightTarget::Sky,
+            emission: sample.radiance,
+        })
+    }
+
+    /// The solid-angle density with which [`sample`](Self::sample) picks `dir`
+    /// towards the sky (0 without one).
+    #[inline]
+    pub fn pdf_sky(&self, dir: Vec3) -> f32 {
+        self.sky
+            .as_ref()
+            .map_or(0.0, |sky| self.sky_probability * sky.pdf(dir))
     }
 
     /// The solid-angle density with which [`sample`](Self::sample) picks the point
@@ -267,3 +345,6 @@ impl LightSampler {
         }
     }
 }
+
+/// The largest `f32` below 1: rescaled uniforms can round up to 1.0.
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;

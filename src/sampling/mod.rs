@@ -7,7 +7,7 @@ mod pdf;
 mod rng;
 
 pub use distribution::AliasTable;
-pub use light::{LightSample, LightSampler};
+pub use light::{LightSample, LightSampler, LightTarget};
 pub use onb::Onb;
 pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
 pub use rng::Rng;

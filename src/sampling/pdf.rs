@@ -14,7 +14,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{LightSampler, Rng};
+use super::{LightSampler, LightTarget, Rng};
 use crate::bsdf::Bsdf;
 use crate::geometry::Hit;
 
@@ -23,9 +23,9 @@ use crate::geometry::Hit;
 pub struct Direction {
     /// Unit direction.
     pub dir: Vec3,
-    /// The emitter triangle the direction was aimed at, when it must be the first hit
-    /// for the draw to count.
-    pub aimed_at: Option<u32>,
+    /// What the direction was aimed at, when it must reach it for the draw to count:
+    /// an emitter that must be the first hit, or the sky (nothing may be hit).
+    pub aimed_at: Option<LightTarget>,
 }
 
 impl Direction {
@@ -34,7 +34,8 @@ impl Direction {
     pub fn reached(&self, first_hit: Option<&Hit>) -> bool {
         match self.aimed_at {
             None => true,
-            Some(prim) => first_hit.is_some_and(|h| h.prim == prim),
+            Some(LightTarget::Emitter(prim)) => first_hit.is_some_and(|h| h.prim == prim),
+            Some(LightTarget::Sky) => first_hit.is_none(),
         }
     }
 }
@@ -73,8 +74,9 @@ impl Pdf for BsdfPdf<'_> {
     }
 }
 
-/// Directions towards points on the scene's lights, as seen from `origin` (see
-/// [`LightSampler`]): a direction has the density of the light point it first hits.
+/// Directions towards points on the scene's lights and its sky, as seen from `origin`
+/// (see [`LightSampler`]): a direction has the density of the light point it first
+/// hits, or of the sky where it leaves the scene.
 #[derive(Clone, Copy, Debug)]
 pub struct LightPdf<'a> {
     pub origin: Vec3,
@@ -84,7 +86,10 @@ pub struct LightPdf<'a> {
 impl Pdf for LightPdf<'_> {
     #[inline]
     fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
-        first_hit.map_or(0.0, |hit| self.lights.pdf_hit(hit.prim, dir, hit.t))
+        match first_hit {
+            Some(hit) => self.lights.pdf_hit(hit.prim, dir, hit.t),
+            None => self.lights.pdf_sky(dir),
+        }
     }
 
     #[inline]
@@ -92,7 +97,7 @@ impl Pdf for LightPdf<'_> {
         let sample = self.lights.sample(self.origin, rng)?;
         Some(Direction {
             dir: sample.dir,
-            aimed_at: Some(sample.prim),
+            aimed_at: Some(sample.target),
         })
     }
 }

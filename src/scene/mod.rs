@@ -3,6 +3,7 @@
 
 mod alpha;
 mod camera;
+mod environment;
 mod material;
 mod mesh;
 mod obj;
@@ -11,6 +12,7 @@ mod textures;
 
 pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings};
+pub use environment::{Environment, SkySample};
 pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use obj::{
@@ -63,6 +65,8 @@ pub enum SceneError {
     Empty { path: PathBuf, detail: String },
     #[error("{path}: {what}")]
     TooLarge { path: PathBuf, what: String },
+    #[error("environment map {path}: {reason}")]
+    Environment { path: PathBuf, reason: String },
 }
 
 /// Everything the integrator reads.
@@ -76,9 +80,9 @@ pub struct Scene {
     pub alpha_maps: Vec<Arc<AlphaMap>>,
     /// Indices of the triangles whose material emits.
     pub emitters: Vec<u32>,
-    /// Radiance arriving from every direction where rays leave the scene (a uniform
-    /// sky); black by default.
-    pub background: Vec3,
+    /// Radiance arriving where rays leave the scene: an environment map or a uniform
+    /// sky; none (black) by default.
+    pub sky: Option<Arc<Environment>>,
 }
 
 impl Scene {
@@ -93,7 +97,7 @@ impl Scene {
             textures,
             alpha_maps: Vec::new(),
             emitters,
-            background: Vec3::ZERO,
+            sky: None,
         }
     }
 
@@ -132,5 +136,24 @@ impl Scene {
 
     pub fn bounds(&self) -> (Vec3, Vec3) {
         self.mesh.bounds()
+    }
+
+    /// Radius of the sphere around the bounding box.
+    pub fn bounding_radius(&self) -> f32 {
+        let (lo, hi) = self.bounds();
+        let radius = 0.5 * (hi - lo).length();
+        if radius.is_finite() {
+            radius
+        } else {
+            0.0
+        }
+    }
+
+    /// Radiance arriving along a ray that leaves the scene in direction `dir`.
+    #[inline]
+    pub fn sky_radiance(&self, dir: Vec3) -> Vec3 {
+        self.sky
+            .as_ref()
+            .map_or(Vec3::ZERO, |sky| sky.radiance(dir))
     }
 }

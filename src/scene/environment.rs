@@ -1,0 +1,268 @@
+//! Light from infinitely far away: an equirectangular (latitude-longitude) radiance
+//! map around the scene, importance-sampled in proportion to luminance × sin θ.
+//!
+//! Conventions (y is up, as in OBJ scenes):
+//! - row 0 of the image is straight up (θ = 0), the last row straight down;
+//! - the middle column looks along −z (where the default camera looks), and columns
+//!   run towards +x: `φ = atan2(x, −z)`, `u = ½ + φ / 2π`, `v = θ / π`;
+//! - `--env-rotate` turns the map about +y by that many degrees (counter-clockwise
+//!   seen from above).
+//!
+//! Radiance is piecewise constant over texels (nearest lookup), so the sampling density
+//! can match it exactly: a texel is chosen by two alias tables (a row by its total
+//! weight, then a column within it, O(1) each), then a uniform point in it. In solid
+//! angle that is `p(ω) = p_row · p_column · W·H / (2π² sin θ)`.
+
+use glam::{Vec2, Vec3};
+use std::f32::consts::PI;
+
+use std::path::Path;
+
+use super::SceneError;
+use crate::color::luminance;
+use crate::image::Image;
+use crate::sampling::AliasTable;
+
+/// A radiance map at infinity with its sampling distribution.
+#[derive(Clone, Debug)]
+pub struct Environment {
+    width: u32,
+    height: u32,
+    /// Radiance per texel (scale applied), row 0 at the top.
+    texels: Vec<Vec3>,
+    /// Rotation about +y, radians.
+    rotation: f32,
+    /// Rows by their total weight; `None` when the map is black everywhere.
+    rows: Option<AliasTable>,
+    /// Columns within each row (`None` for a row with no weight).
+    columns: Vec<Option<AliasTable>>,
+}
+
+/// A direction drawn towards the environment.
+#[derive(Clone, Copy, Debug)]
+pub struct SkySample {
+    pub dir: Vec3,
+    pub radiance: Vec3,
+    /// Solid-angle density (> 0).
+    pub pdf: f32,
+}
+
+impl Environment {
+    /// The map `texels` (`width × height`, linear radiance, row 0 up) times `scale`,
+    /// turned by `rotate_degrees` about +y.
+    pub fn new(
+        width: u32,
+        height: u32,
+        texels: Vec<Vec3>,
+        scale: f32,
+        rotate_degrees: f32,
+    ) -> Self {
+        assert_eq!(texels.len(), width as usize * height as usize);
+        let texels: Vec<Vec3> = texels.into_iter().map(|t| t * scale).collect();
+        let row_weights: Vec<Vec<f32>> = (0..height)
+            .map(|row| {
+                let sin_theta = ((row as f32 + 0.5) / height as f32 * PI).sin();
+                let start = (row * width) as usize;
+                texels[start..start + width as usize]
+                    .iter()
+                    .map(|&t| luminance(t).max(0.0) * sin_theta)
+                    .collect()
+            })
+            .collect();
+        let totals: Vec<f32> = row_weights.iter().map(|r| r.iter().sum()).collect();
+        Environment {
+            width,
+            height,
+            texels,
+            rotation: rotate_degrees.to_radians(),
+            rows: AliasTable::new(&totals),
+            columns: row_weights.iter().map(|r| AliasTable::new(r)).collect(),
+        }
+    }
+
+    /// Reads an equirectangular map (EXR or HDR hold linear radiance; any other format
+    /// the `image` crate reads is taken as sRGB), refusing texels that are negative or
+    /// not finite.
+    pub fn load(path: &Path, scale: f32, rotate_degrees: f32) -> Result<Self, SceneError> {
+        let fail = |reason: String| SceneError::Environment {
+            path: path.to_owned(),
+            reason,
+        };
+        let image = Image::load(path).map_err(|e| fail(e.to_string()))?;
+        if let Some((i, t)) = image
+            .pixels
+            .iter()
+            .enumerate()
+            .find(|(_, t)| !t.is_finite() || t.min_element() < 0.0)
+        {
+            let (x, y) = (i as u32 % image.width, i as u32 / image.width);
+            return Err(fail(format!(
+                "texel ({x}, {y}) is {t}, not a finite radiance ≥ 0"
+            )));
+        }
+        if !(scale.is_finite() && scale >= 0.0 && rotate_degrees.is_finite()) {
+            return Err(fail(format!(
+                "scale {scale} or rotation {rotate_degrees} is not usable"
+            )));
+        }
+        Ok(Environment::new(
+            image.width,
+            image.height,
+            image.pixels,
+            scale,
+            rotate_degrees,
+        ))
+    }
+
+    /// A uniform sky of radiance `radiance`: one column, rows fine enough that the
+    /// density is close to uniform on the sphere.
+    pub fn constant(radiance: Vec3) -> Self {
+        let rows = 64;
+        Environment::new(1, rows, vec![radiance; rows as usize], 1.0, 0.0)
+    }
+
+    /// Whether any direction carries light (and sampling the sky is worth it).
+    pub fn is_black(&self) -> bool {
+        self.rows.is_none()
+    }
+
+    /// Luminance of the radiance integrated over the sphere, `∫ lum(L) dω`.
+    pub fn luminous_intensity(&self) -> f32 {
+        let (w, h) = (self.width as f32, self.height as f32);
+        let mut total = 0.0f64;
+        for row in 0..self.height {
+            let sin_theta = ((row as f32 + 0.5) / h * PI).sin();
+            let start = (row * self.width) as usize;
+            let sum: f32 = self.texels[start..start + self.width as usize]
+                .iter()
+                .map(|&t| luminance(t).max(0.0))
+                .sum();
+            total += f64::from(sum * sin_theta);
+        }
+        (total * f64::from(2.0 * PI * PI / (w * h))) as f32
+    }
+
+    /// Radiance arriving from the unit direction `dir` (from the sky towards the
+    /// scene along `-dir`).
+    #[inline]
+    pub fn radiance(&self, dir: Vec3) -> Vec3 {
+        self.texels[self.texel_index(self.map_coordinates(dir))]
+    }
+
+    /// Solid-angle density with which [`sample`](Self::sample) draws `dir`.
+    #[inline]
+    pub fn pdf(&self, dir: Vec3) -> f32 {
+        let Some(rows) = &self.rows else {
+            return 0.0;
+        };
+        let uv = self.map_coordinates(dir);
+        let (col, row) = self.texel(uv);
+        let Some(columns) = &self.columns[row] else {
+            return 0.0;
+        };
+        let sin_theta = (uv.y * PI).sin();
+        if sin_theta <= 0.0 {
+            return 0.0;
+        }
+        let texel_probability = rows.pmf(row) * columns.pmf(col);
+        texel_probability * (self.width * self.height) as f32 / (2.0 * PI * PI * sin_theta)
+    }
+
+    /// A direction towards the sky from a row draw `u_row` (an `f64` with random low
+    /// bits, see [`AliasTable::sample`]) and a column draw `u_column`.
+    #[inline]
+    pub fn sample(&self, u_row: f64, u_column: f64) -> Option<SkySample> {
+        let (row, v_in_row) = self.rows.as_ref()?.sample(u_row);
+        let (col, u_in_col) = self.columns[row].as_ref()?.sample(u_column);
+        let uv = Vec2::new(
+            (col as f32 + u_in_col) / self.width as f32,
+            (row as f32 + v_in_row) / self.height as f32,
+        );
+        let dir = self.direction(uv);
+        let pdf = self.pdf(dir);
+        (pdf > 0.0 && pdf.is_finite()).then(|| SkySample {
+            dir,
+            radiance: self.radiance(dir),
+            pdf,
+        })
+    }
+
+    /// `(u, v)` in [0, 1]² of a unit world direction.
+    #[inline]
+    fn map_coordinates(&self, dir: Vec3) -> Vec2 {
+        let (s, c) = self.rotation.sin_cos();
+        // Undo the map's rotation about +y.
+        let x = c * dir.x - s * dir.z;
+        let z = s * dir.x + c * dir.z;
+        let phi = x.atan2(-z);
+        let theta = dir.y.clamp(-1.0, 1.0).acos();
+        Vec2::new(0.5 + phi / (2.0 * PI), theta / PI)
+    }
+
+    /// The unit world direction at map coordinates `uv`.
+    #[inline]
+    fn direction(&self, uv: Vec2) -> Vec3 {
+        let phi = (uv.x - 0.5) * 2.0 * PI;
+        let theta = uv.y * PI;
+        let (sin_t, cos_t) = theta.sin_cos();
+        let (x, z) = (sin_t * phi.sin(), -sin_t * phi.cos());
+        let (s, c) = self.rotation.sin_cos();
+        Vec3::new(c * x + s * z, cos_t, -s * x + c * z)
+    }
+
+    #[inline]
+    fn texel(&self, uv: Vec2) -> (usize, usize) {
+        let col = ((uv.x * self.width as f32) as usize).min(self.width as usize - 1);
+        let row = ((uv.y * self.height as f32) as usize).min(self.height as usize - 1);
+        (col, row)
+    }
+
+    #[inline]
+    fn texel_index(&self, uv: Vec2) -> usize {
+        let (col, row) = self.texel(uv);
+        row * self.width as usize + col
+    }
+
+    /// The numbers that identify the map (for checkpoint identity): size, rotation and
+    /// every texel's radiance bits.
+    pub fn identity_words(&self) -> impl Iterator<Item = u32> + '_ {
+        [self.width, self.height, self.rotation.to_bits()]
+            .into_iter()
+            .chain(
+                self.texels
+                    .iter()
+                    .flat_map(|t| t.to_array().map(f32::to_bits)),
+            )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn directions_and_map_coordinates_round_trip() {
+        for rotate in [0.0f32, 37.0, -120.0] {
+            let env = Environment::new(4, 2, vec![Vec3::ONE; 8], 1.0, rotate);
+            for (u, v) in [(0.1f32, 0.2f32), (0.5, 0.5), (0.9, 0.77), (0.33, 0.05)] {
+                let dir = env.direction(Vec2::new(u, v));
+                assert!((dir.length() - 1.0).abs() < 1e-5);
+                let back = env.map_coordinates(dir);
+                assert!(
+                    (back - Vec2::new(u, v)).abs().max_element() < 1e-5,
+                    "{rotate}: {back}"
+                );
+            }
+        }
+        // The middle of the map looks along −z, the top row up.
+        let env = Environment::constant(Vec3::ONE);
+        assert!((env.direction(Vec2::new(0.5, 0.5)) - Vec3::NEG_Z).length() < 1e-5);
+        assert!((env.direction(Vec2::new(0.3, 0.0)) - Vec3::Y).length() < 1e-5);
+    }
+
+    #[test]
+    fn a_uniform_map_has_its_radiance_times_four_pi() {
+        let env = Environment::constant(Vec3::splat(2.0));
+        assert!((env.luminous_intensity() - 8.0 * PI).abs() < 0.05);
+    }
+}
