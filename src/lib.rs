@@ -21,6 +21,7 @@ pub mod geometry;
 pub mod image;
 pub mod integrator;
 pub mod io;
+pub mod light;
 pub mod limits;
 pub mod render;
 pub mod sampling;

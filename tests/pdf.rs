@@ -10,9 +10,8 @@ use common::stats::{bin_integrals, check_density, monte_carlo, Binning, Density}
 use common::{build, diffuse, quad, Built};
 use ember::accel::{Accel, Ray};
 use ember::bsdf::Bsdf;
-use ember::sampling::{
-    uniform_sphere, BsdfPdf, LightPdf, LightSampler, LightTarget, MixturePdf, Pdf, Rng,
-};
+use ember::light::{BsdfPdf, LightPdf, LightSampler, LightTarget, MixturePdf, Pdf};
+use ember::sampling::{uniform_sphere, Rng};
 use glam::Vec3;
 
 #[test]

@@ -31,7 +31,8 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
-use crate::sampling::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf, Rng};
+use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf};
+use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
 
 /// Which light-transport estimator `ember render` uses.

@@ -1,15 +1,12 @@
-//! Random numbers, local frames and the probability densities the integrators sample.
+//! Random numbers, local frames, discrete distributions and the warps from uniform
+//! numbers to directions and points: the leaf every sampler builds on.
 
 mod distribution;
-mod light;
 mod onb;
-mod pdf;
 mod rng;
 
 pub use distribution::AliasTable;
-pub use light::{LightSample, LightSampler, LightTarget};
 pub use onb::Onb;
-pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
 pub use rng::Rng;
 
 use glam::Vec3;

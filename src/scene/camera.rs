@@ -2,7 +2,7 @@
 
 use glam::Vec3;
 
-use crate::accel::Ray;
+use crate::geometry::Ray;
 
 /// Where the camera is and what it sees. Row 0 of the image is the top; image-right is
 /// the camera's +x (`forward × up`).

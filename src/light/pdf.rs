@@ -14,9 +14,10 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{LightSampler, LightTarget, Rng};
+use super::{LightSampler, LightTarget};
 use crate::bsdf::Bsdf;
 use crate::geometry::Hit;
+use crate::sampling::Rng;
 
 /// A direction drawn from a [`Pdf`].
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -16,9 +16,9 @@ use glam::Vec3;
 use std::f32::consts::PI;
 use std::sync::Arc;
 
-use super::{uniform_triangle, AliasTable, Rng};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
+use crate::sampling::{uniform_triangle, AliasTable, Rng};
 use crate::scene::{Environment, Material, TriangleMesh};
 
 /// The scene's emitters with a power-proportional distribution over them.
