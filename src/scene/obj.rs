@@ -239,8 +239,51 @@ fn load_obj_text(
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
     let text = &strip_comments(text);
-    // tobj hands us each `mtllib` name; we read it ourselves so that a missing or
-    // broken library is an error naming the file, not a silently grey scene.
+    let parsed = parse(path, text, sources)?;
+    let mut report = LoadReport::default();
+    // In memory there is no directory to search: every texture is "not found".
+    let mut search_dirs = Vec::new();
+    if let Sources::Disk { dir } = sources {
+        search_dirs.push(dir.clone());
+        search_dirs.extend(parsed.mtl_dirs);
+    }
+    let mut loader = TextureLoader::new(search_dirs);
+    let mut materials = build_materials(path, &parsed.materials, &mut loader, &mut report)?;
+    // Faces without a (known) material use a matte grey at the end of the list.
+    let default_material = materials.len() as u32;
+    materials.push(Material::default());
+    let mesh = build_mesh(path, &parsed.models, default_material, &mut report)?;
+    if text.contains("usemtl") && parsed.materials.is_empty() {
+        report.warnings.push(
+            "faces name materials but no material library was loaded; they render grey".into(),
+        );
+    }
+    let TextureLoader {
+        textures,
+        alpha_maps,
+        ..
+    } = loader;
+    let mut scene = Scene::new(mesh, materials, textures);
+    scene.alpha_maps = alpha_maps;
+    report.triangles = scene.mesh.triangles.len();
+    report.vertices = scene.mesh.positions.len();
+    report.materials = parsed.materials.len();
+    report.emitters = scene.emitters.len();
+    Ok((scene, report))
+}
+
+/// What tobj read: the models, their materials, and the folders the MTL files came
+/// from (textures are looked up there too).
+struct Parsed {
+    models: Vec<tobj::Model>,
+    materials: Vec<tobj::Material>,
+    mtl_dirs: Vec<PathBuf>,
+}
+
+/// Runs tobj over the OBJ text, reading each `mtllib` ourselves so that a missing or
+/// broken library is an error naming the file, not a silently grey scene; then refuses
+/// counts that do not fit ember's indices.
+fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, SceneError> {
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_dirs: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
     let load_mtl = |name: &Path| -> tobj::MTLLoadResult {
@@ -269,23 +312,17 @@ fn load_obj_text(
         ignore_points: true,
         ignore_lines: true,
     };
-    check_face_indices(text).map_err(|reason| SceneError::Obj {
+    let obj_error = |reason: String| SceneError::Obj {
         path: path.to_owned(),
         reason,
-    })?;
+    };
+    check_face_indices(text).map_err(obj_error)?;
     let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl);
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
-    let (models, tobj_materials) = loaded.map_err(|e| SceneError::Obj {
-        path: path.to_owned(),
-        reason: e.to_string(),
-    })?;
-    let tobj_materials = tobj_materials.map_err(|e| SceneError::Obj {
-        path: path.to_owned(),
-        reason: format!("materials: {e}"),
-    })?;
-
+    let (models, materials) = loaded.map_err(|e| obj_error(e.to_string()))?;
+    let materials = materials.map_err(|e| obj_error(format!("materials: {e}")))?;
     let triangle_count: u64 = models.iter().map(|m| m.mesh.indices.len() as u64 / 3).sum();
     let vertex_count: u64 = models
         .iter()
@@ -295,18 +332,23 @@ fn load_obj_text(
         path: path.to_owned(),
         what,
     })?;
+    Ok(Parsed {
+        models,
+        materials,
+        mtl_dirs: mtl_dirs.into_inner(),
+    })
+}
 
-    let mut report = LoadReport::default();
-    // In memory there is no directory to search: every texture is "not found".
-    let mut search_dirs = Vec::new();
-    if let Sources::Disk { dir } = sources {
-        search_dirs.push(dir.clone());
-        search_dirs.extend(mtl_dirs.into_inner());
-    }
-    let mut loader = TextureLoader::new(search_dirs);
+/// ember's materials from tobj's, with their textures and opacity maps decoded.
+fn build_materials(
+    path: &Path,
+    tobj_materials: &[tobj::Material],
+    loader: &mut TextureLoader,
+    report: &mut LoadReport,
+) -> Result<Vec<Material>, SceneError> {
     let mut zero_opacity = Vec::new();
     let mut materials = Vec::with_capacity(tobj_materials.len() + 1);
-    for m in &tobj_materials {
+    for m in tobj_materials {
         let (texture, kd_alpha) = match &m.diffuse_texture {
             Some(name) => {
                 let (texture, alpha) = loader.diffuse(name, &m.name)?;
@@ -322,11 +364,11 @@ fn load_obj_text(
             ni: m.optical_density,
             illum: m.illumination_model,
         };
-        let check = [values.kd, values.ks, values.ke]
+        let finite = [values.kd, values.ks, values.ke]
             .into_iter()
             .flatten()
             .all(|c| c.is_finite());
-        if !check {
+        if !finite {
             return Err(SceneError::Obj {
                 path: path.to_owned(),
                 reason: format!("material {:?} has a non-finite colour", m.name),
@@ -350,70 +392,28 @@ fn load_obj_text(
     if !zero_opacity.is_empty() {
         report.warnings.push(zero_opacity_warning(&zero_opacity));
     }
-    let TextureLoader {
-        textures,
-        alpha_maps,
-        ..
-    } = loader;
-    // Faces without a (known) material use a matte grey at the end of the list.
-    let default_material = materials.len() as u32;
-    materials.push(Material::default());
+    Ok(materials)
+}
 
+/// One indexed mesh from every model: positions, normals and UVs checked to be
+/// finite, faces checked to be in range, degenerate triangles dropped and counted.
+fn build_mesh(
+    path: &Path,
+    models: &[tobj::Model],
+    default_material: u32,
+    report: &mut LoadReport,
+) -> Result<TriangleMesh, SceneError> {
     let mut mesh = TriangleMesh::default();
-    let mut any_normals = false;
-    let mut any_uvs = false;
-    for model in &models {
-        let m = &model.mesh;
+    let mut attributes = AttributePresence::default();
+    for model in models {
         let offset = mesh.positions.len();
-        let count = m.positions.len() / 3;
-        for (i, p) in m.positions.chunks_exact(3).enumerate() {
-            let p = Vec3::new(p[0], p[1], p[2]);
-            if !p.is_finite() {
-                return Err(non_finite(path, "vertex", offset + i + 1, p));
-            }
-            mesh.positions.push(p);
-        }
-        // tobj's single index gives attributes per vertex, or none for the whole model.
-        if m.normals.len() == m.positions.len() && count > 0 {
-            if !any_normals {
-                mesh.normals.resize(offset, Vec3::ZERO);
-                any_normals = true;
-            }
-            for (i, n) in m.normals.chunks_exact(3).enumerate() {
-                let n = Vec3::new(n[0], n[1], n[2]);
-                if !n.is_finite() {
-                    return Err(non_finite(path, "normal", offset + i + 1, n));
-                }
-                mesh.normals.push(n);
-            }
-        } else if any_normals {
-            mesh.normals.resize(offset + count, Vec3::ZERO);
-        }
-        if m.texcoords.len() / 2 == count && count > 0 {
-            if !any_uvs {
-                mesh.uvs.resize(offset, Vec2::ZERO);
-                any_uvs = true;
-            }
-            for (i, t) in m.texcoords.chunks_exact(2).enumerate() {
-                let t = Vec2::new(t[0], t[1]);
-                if !t.is_finite() {
-                    return Err(non_finite(
-                        path,
-                        "texture coordinate",
-                        offset + i + 1,
-                        t.extend(0.0),
-                    ));
-                }
-                mesh.uvs.push(t);
-            }
-        } else if any_uvs {
-            mesh.uvs.resize(offset + count, Vec2::ZERO);
-        }
-        let material = match m.material_id {
-            Some(id) if id < tobj_materials.len() => id as u32,
+        append_attributes(path, &model.mesh, &mut mesh, &mut attributes)?;
+        let material = match model.mesh.material_id {
+            Some(id) if (id as u32) < default_material => id as u32,
             _ => default_material,
         };
-        for tri in m.indices.chunks_exact(3) {
+        let count = model.mesh.positions.len() / 3;
+        for tri in model.mesh.indices.chunks_exact(3) {
             if tri.iter().any(|&i| i as usize >= count) {
                 return Err(SceneError::Obj {
                     path: path.to_owned(),
@@ -445,19 +445,70 @@ fn load_obj_text(
             detail,
         });
     }
-    if text.contains("usemtl") && tobj_materials.is_empty() {
-        report.warnings.push(
-            "faces name materials but no material library was loaded; they render grey".into(),
-        );
-    }
+    Ok(mesh)
+}
 
-    let mut scene = Scene::new(mesh, materials, textures);
-    scene.alpha_maps = alpha_maps;
-    report.triangles = scene.mesh.triangles.len();
-    report.vertices = scene.mesh.positions.len();
-    report.materials = tobj_materials.len();
-    report.emitters = scene.emitters.len();
-    Ok((scene, report))
+/// Whether any model so far had normals or UVs: once one has, every vertex gets one
+/// (zero where its model had none).
+#[derive(Default)]
+struct AttributePresence {
+    normals: bool,
+    uvs: bool,
+}
+
+/// Appends one model's vertex positions, normals and UVs to `mesh`.
+fn append_attributes(
+    path: &Path,
+    m: &tobj::Mesh,
+    mesh: &mut TriangleMesh,
+    any: &mut AttributePresence,
+) -> Result<(), SceneError> {
+    let offset = mesh.positions.len();
+    let count = m.positions.len() / 3;
+    for (i, p) in m.positions.chunks_exact(3).enumerate() {
+        let p = Vec3::new(p[0], p[1], p[2]);
+        if !p.is_finite() {
+            return Err(non_finite(path, "vertex", offset + i + 1, p));
+        }
+        mesh.positions.push(p);
+    }
+    // tobj's single index gives attributes per vertex, or none for the whole model.
+    if m.normals.len() == m.positions.len() && count > 0 {
+        if !any.normals {
+            mesh.normals.resize(offset, Vec3::ZERO);
+            any.normals = true;
+        }
+        for (i, n) in m.normals.chunks_exact(3).enumerate() {
+            let n = Vec3::new(n[0], n[1], n[2]);
+            if !n.is_finite() {
+                return Err(non_finite(path, "normal", offset + i + 1, n));
+            }
+            mesh.normals.push(n);
+        }
+    } else if any.normals {
+        mesh.normals.resize(offset + count, Vec3::ZERO);
+    }
+    if m.texcoords.len() / 2 == count && count > 0 {
+        if !any.uvs {
+            mesh.uvs.resize(offset, Vec2::ZERO);
+            any.uvs = true;
+        }
+        for (i, t) in m.texcoords.chunks_exact(2).enumerate() {
+            let t = Vec2::new(t[0], t[1]);
+            if !t.is_finite() {
+                return Err(non_finite(
+                    path,
+                    "texture coordinate",
+                    offset + i + 1,
+                    t.extend(0.0),
+                ));
+            }
+            mesh.uvs.push(t);
+        }
+    } else if any.uvs {
+        mesh.uvs.resize(offset + count, Vec2::ZERO);
+    }
+    Ok(())
 }
 
 /// Refuses meshes whose triangle or vertex count does not fit ember's `u32` indices.
