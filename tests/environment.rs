@@ -29,6 +29,13 @@ fn sun_map(width: u32, height: u32) -> Environment {
     Environment::new(width, height, texels, 1.0, 30.0)
 }
 
+const ALL: [IntegratorKind; 4] = [
+    IntegratorKind::Bsdf,
+    IntegratorKind::Light,
+    IntegratorKind::Mixture,
+    IntegratorKind::Mis,
+];
+
 fn draw(env: &Environment, rng: &mut Rng) -> Option<ember::scene::SkySample> {
     let (u1, u2) = (rng.f64(), rng.f64());
     env.sample(u1, u2)
@@ -76,12 +83,7 @@ fn furnace_under_a_constant_map_from_a_file() {
         .collect();
     let mut built = build(&cube, vec![diffuse(Vec3::ONE, Vec3::ZERO)]);
     built.scene.sky = Some(Arc::new(env));
-    for kind in [
-        IntegratorKind::Bsdf,
-        IntegratorKind::Light,
-        IntegratorKind::Mixture,
-        IntegratorKind::Mis,
-    ] {
+    for kind in ALL {
         let tracer = PathTracer::new(&built.scene, &built.accel, 64, kind);
         let mut count = RayCount::default();
         let ray = Ray::new(
@@ -185,12 +187,7 @@ fn every_integrator_finds_the_light_reflected_under_a_sun() {
     );
     let mut built = build(&quad, vec![diffuse(Vec3::ONE, Vec3::ZERO)]);
     built.scene.sky = Some(Arc::new(env));
-    for kind in [
-        IntegratorKind::Bsdf,
-        IntegratorKind::Light,
-        IntegratorKind::Mixture,
-        IntegratorKind::Mis,
-    ] {
+    for kind in ALL {
         // Two segments: the view ray and one bounce to the sky (the plane is alone).
         let tracer = PathTracer::new(&built.scene, &built.accel, 2, kind);
         let mut count = RayCount::default();
