@@ -91,13 +91,7 @@ pub struct Bsdf {
 impl Bsdf {
     /// A Lambertian surface of albedo `albedo`.
     pub fn lambert(albedo: Vec3, ns: Vec3, ng: Vec3) -> Bsdf {
-        let lobes = Lobes::Reflective {
-            diffuse: albedo,
-            specular: Vec3::ZERO,
-            ggx: Ggx::new(1.0),
-            glossy_probability: 0.0,
-        };
-        Bsdf::with_lobes(lobes, ns, ng)
+        Bsdf::glossy(albedo, Vec3::ZERO, 1.0, ns, ng)
     }
 
     /// Lambert `diffuse` plus a GGX lobe of roughness `alpha` with Fresnel ≡
@@ -161,13 +155,11 @@ impl Bsdf {
                 glossy_probability,
                 ..
             } => {
-                let flip = wo.dot(self.ng) < 0.0;
+                let (flip, wo_local) = self.reflective_frame(wo)?;
                 let wi_local = if u.x < glossy_probability {
-                    let (_, wo_local) = self.reflective_frame(wo)?;
                     let u = Vec2::new(u.x / glossy_probability, u.y);
                     reflect(wo_local, ggx.sample_visible_normal(wo_local, u))
                 } else {
-                    // `eval_pdf` below refuses a `wo` under the shading normal.
                     let u1 = (u.x - glossy_probability) / (1.0 - glossy_probability);
                     cosine_hemisphere(u1.min(ONE_BELOW), u.y)
                 };
@@ -210,11 +202,8 @@ impl Bsdf {
     }
 
     /// [`eval`](Self::eval) and [`pdf`](Self::pdf) at once, sharing the frame change.
-    /// Only the cosines are needed for the Lambert lobe; the full local frame is built
-    /// only for a GGX lobe.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        const NONE: (Vec3, f32) = (Vec3::ZERO, 0.0);
         let Lobes::Reflective {
             diffuse,
             specular,
@@ -222,25 +211,19 @@ impl Bsdf {
             glossy_probability,
         } = self.lobes
         else {
-            return NONE;
+            return (Vec3::ZERO, 0.0);
         };
-        let (side_o, side_i) = (wo.dot(self.ng), wi.dot(self.ng));
-        // Reflection only: both directions on one side of the geometric surface, and
-        // above the shading normal turned to that side.
-        if side_o * side_i <= 0.0 {
-            return NONE;
+        let Some((flip, wo_local)) = self.reflective_frame(wo) else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let wi_local = self.local(wi, flip);
+        if wi_local.z <= 0.0 || !self.same_side(wo, wi) {
+            return (Vec3::ZERO, 0.0);
         }
-        let flip = side_o < 0.0;
-        let sign = if flip { -1.0 } else { 1.0 };
-        let (cos_o, cos_i) = (sign * wo.dot(self.frame.w), sign * wi.dot(self.frame.w));
-        if cos_o <= 0.0 || cos_i <= 0.0 {
-            return NONE;
-        }
-        let cosine = cos_i * FRAC_1_PI;
+        let cosine = wi_local.z * FRAC_1_PI;
         let mut value = diffuse * cosine;
         let mut pdf = (1.0 - glossy_probability) * cosine;
         if glossy_probability > 0.0 {
-            let (wo_local, wi_local) = (self.local(wo, flip), self.local(wi, flip));
             value += specular * ggx.reflectance_cos(wo_local, wi_local);
             pdf += glossy_probability * ggx.pdf(wo_local, wi_local);
         }

@@ -86,16 +86,21 @@ pub fn barycentric_error(b: [f32; 3], [a, v1, v2]: [Vec3; 3]) -> Vec3 {
 
 impl SurfaceOrigin {
     /// The origin of a ray leaving towards `dir`: `p` moved along the geometric normal,
-    /// to the side `dir` points to, past the error box. The distance also covers the
-    /// rounding of the move itself (at most half an ulp of each coordinate, bounded
-    /// here by a whole one), which pbrt-v4 covers by stepping each coordinate one ulp
-    /// instead: the same guarantee without a branch per axis.
+    /// to the side `dir` points to, past the error box, then rounded away from the
+    /// surface so the rounding of the move itself cannot bring it back.
     #[inline]
     pub fn offset_towards(&self, dir: Vec3) -> Vec3 {
-        let bound = self.error + self.p.abs() * f32::EPSILON;
-        let distance = self.ng.abs().dot(bound) + f32::MIN_POSITIVE;
-        let side = if dir.dot(self.ng) < 0.0 { -1.0 } else { 1.0 };
-        self.p + self.ng * (side * distance)
+        let distance = self.ng.abs().dot(self.error);
+        let mut offset = self.ng * distance;
+        if dir.dot(self.ng) < 0.0 {
+            offset = -offset;
+        }
+        let moved = self.p + offset;
+        Vec3::new(
+            round_away(moved.x, offset.x),
+            round_away(moved.y, offset.y),
+            round_away(moved.z, offset.z),
+        )
     }
 
     /// A ray leaving this surface along `dir`.
@@ -129,9 +134,42 @@ pub const SPAWN_TMIN: f32 = f32::MIN_POSITIVE;
 /// Fraction of a shadow segment left out at its far end.
 pub const SHADOW_EPSILON: f32 = 1e-4;
 
+/// `x` moved one ulp further in the direction of `offset`'s sign (unchanged for 0),
+/// as `f32::next_up`/`next_down` do (not used: they need Rust 1.86).
+#[inline]
+fn round_away(x: f32, offset: f32) -> f32 {
+    if offset == 0.0 || !x.is_finite() {
+        return x;
+    }
+    if x == 0.0 {
+        return f32::from_bits(1).copysign(offset);
+    }
+    // Away from zero is one more in the bits; towards zero, one less.
+    let bits = x.to_bits();
+    if (offset > 0.0) == (x > 0.0) {
+        f32::from_bits(bits + 1)
+    } else {
+        f32::from_bits(bits - 1)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn round_away_moves_one_ulp() {
+        for x in [1.0f32, -1.0, 3.5e4, -2.5e-3, 1e-30] {
+            let up = round_away(x, 1.0);
+            let down = round_away(x, -1.0);
+            assert!(up > x && down < x, "{x}");
+            // One ulp: no f32 lies strictly between.
+            let ulp = f64::from(x).abs() * f64::from(f32::EPSILON);
+            assert!(f64::from(up) - f64::from(x) <= ulp && f64::from(x) - f64::from(down) <= ulp);
+            assert_eq!(round_away(x, 0.0), x);
+        }
+        assert!(round_away(0.0, 1.0) > 0.0 && round_away(0.0, -1.0) < 0.0);
+    }
 
     /// A point on a tilted triangle far from the origin: rays spawned off it, either
     /// way, start strictly on their own side of the exact plane, however far out.
