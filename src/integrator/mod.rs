@@ -83,6 +83,19 @@ enum EmissionWeight {
     Mis { bsdf_pdf: f32 },
 }
 
+impl EmissionWeight {
+    /// The weight of light met by the ray, given the density with which light
+    /// sampling would have chosen the same direction (asked for only under MIS).
+    #[inline]
+    fn weight(self, light_pdf: impl FnOnce() -> f32) -> f32 {
+        match self {
+            EmissionWeight::Full => 1.0,
+            EmissionWeight::Skip => 0.0,
+            EmissionWeight::Mis { bsdf_pdf } => power_heuristic(bsdf_pdf, light_pdf()),
+        }
+    }
+}
+
 /// Where a path goes from a vertex: the next direction, the factor the throughput is
 /// multiplied by, and the first hit when choosing the direction needed the trace.
 struct Step {
@@ -205,25 +218,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
             return Vec3::ZERO;
         }
-        let weight = match how {
-            EmissionWeight::Full => 1.0,
-            EmissionWeight::Skip => 0.0,
-            EmissionWeight::Mis { bsdf_pdf } => {
-                power_heuristic(bsdf_pdf, self.lights.pdf_hit(hit.prim, dir, hit.t))
-            }
-        };
-        material.emission * weight
+        material.emission * how.weight(|| self.lights.pdf_hit(hit.prim, dir, hit.t))
     }
 
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
     fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
-        let weight = match how {
-            EmissionWeight::Full => 1.0,
-            EmissionWeight::Skip => 0.0,
-            EmissionWeight::Mis { bsdf_pdf } => power_heuristic(bsdf_pdf, self.lights.pdf_sky(dir)),
-        };
+        let weight = how.weight(|| self.lights.pdf_sky(dir));
         if weight == 0.0 {
             return Vec3::ZERO;
         }

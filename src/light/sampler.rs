@@ -30,6 +30,8 @@ pub struct LightSampler {
     /// touches one 64-byte record instead of indices, vertices and materials.
     emitters: Vec<Emitter>,
     table: Option<AliasTable>,
+    /// `π Σ A·lum(Ke)` over the emitters: their power, weighed against the sky's.
+    power: f32,
     /// Where the emitters are and which way they face, to tell cheaply which points
     /// no emitter can light (see [`may_light`](Self::may_light)).
     bounds: EmitterBounds,
@@ -137,9 +139,10 @@ impl LightSampler {
     /// Builds the distribution over the triangles of `mesh` whose material emits
     /// (O(n), once per scene).
     pub fn new(mesh: &TriangleMesh, materials: &[Material]) -> Self {
-        let emission = |t: u32| materials[mesh.material[t as usize] as usize].emission;
+        let material = |t: u32| &materials[mesh.material[t as usize] as usize];
+        let emission = |t: u32| material(t).emission;
         let prims: Vec<u32> = (0..mesh.triangles.len() as u32)
-            .filter(|&t| emission(t).max_element() > 0.0)
+            .filter(|&t| material(t).is_emissive())
             .collect();
         let weights: Vec<f32> = prims
             .iter()
@@ -166,6 +169,7 @@ impl LightSampler {
             bounds: EmitterBounds::new(&emitters),
             emitters,
             table,
+            power: PI * weights.iter().sum::<f32>(),
             sky: None,
             sky_probability: 0.0,
         }
@@ -178,20 +182,11 @@ impl LightSampler {
         let Some(sky) = sky.filter(|s| !s.is_black()) else {
             return self;
         };
-        let emitter_power: f32 = PI
-            * self
-                .emitters
-                .iter()
-                .map(|e| {
-                    let [a, b, c] = e.vertices;
-                    0.5 * (b - a).cross(c - a).length() * luminance(e.emission)
-                })
-                .sum::<f32>();
         let sky_power = sky.luminous_intensity() * PI * scene_radius.max(1e-6).powi(2);
         let p = if self.table.is_none() {
             1.0
         } else {
-            (sky_power / (sky_power + emitter_power)).clamp(0.05, 0.95)
+            (sky_power / (sky_power + self.power)).clamp(0.05, 0.95)
         };
         for e in &mut self.emitters {
             e.area_density *= 1.0 - p;

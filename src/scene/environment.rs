@@ -36,6 +36,8 @@ pub struct Environment {
     rows: Option<AliasTable>,
     /// Columns within each row (`None` for a row with no weight).
     columns: Vec<Option<AliasTable>>,
+    /// `∫ lum(L) dω` over the sphere.
+    luminous_intensity: f32,
 }
 
 /// A direction drawn towards the environment.
@@ -70,6 +72,10 @@ impl Environment {
             })
             .collect();
         let totals: Vec<f32> = row_weights.iter().map(|r| r.iter().sum()).collect();
+        // Each texel spans 2π/W by π/H in (φ, θ), so dω = 2π²/(W·H) · sin θ.
+        let texel_solid_angle = 2.0 * PI * PI / (width * height) as f32;
+        let luminous_intensity =
+            totals.iter().map(|&t| f64::from(t)).sum::<f64>() as f32 * texel_solid_angle;
         Environment {
             width,
             height,
@@ -77,6 +83,7 @@ impl Environment {
             rotation: rotate_degrees.to_radians(),
             rows: AliasTable::new(&totals),
             columns: row_weights.iter().map(|r| AliasTable::new(r)).collect(),
+            luminous_intensity,
         }
     }
 
@@ -128,18 +135,7 @@ impl Environment {
 
     /// Luminance of the radiance integrated over the sphere, `∫ lum(L) dω`.
     pub fn luminous_intensity(&self) -> f32 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let mut total = 0.0f64;
-        for row in 0..self.height {
-            let sin_theta = ((row as f32 + 0.5) / h * PI).sin();
-            let start = (row * self.width) as usize;
-            let sum: f32 = self.texels[start..start + self.width as usize]
-                .iter()
-                .map(|&t| luminance(t).max(0.0))
-                .sum();
-            total += f64::from(sum * sin_theta);
-        }
-        (total * f64::from(2.0 * PI * PI / (w * h))) as f32
+        self.luminous_intensity
     }
 
     /// Radiance arriving from the unit direction `dir` (from the sky towards the
@@ -152,15 +148,19 @@ impl Environment {
     /// Solid-angle density with which [`sample`](Self::sample) draws `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        let Some(rows) = &self.rows else {
-            return 0.0;
-        };
         let uv = self.map_coordinates(dir);
         let (col, row) = self.texel(uv);
-        let Some(columns) = &self.columns[row] else {
+        self.density(col, row, uv.y)
+    }
+
+    /// The density in solid angle at map row `v` (in [0, 1]) of texel (`col`, `row`):
+    /// its probability spread uniformly over its (u, v) area, `dω = 2π² sin θ du dv`.
+    #[inline]
+    fn density(&self, col: usize, row: usize, v: f32) -> f32 {
+        let (Some(rows), Some(columns)) = (&self.rows, &self.columns[row]) else {
             return 0.0;
         };
-        let sin_theta = (uv.y * PI).sin();
+        let sin_theta = (v * PI).sin();
         if sin_theta <= 0.0 {
             return 0.0;
         }
@@ -178,11 +178,11 @@ impl Environment {
             (col as f32 + u_in_col) / self.width as f32,
             (row as f32 + v_in_row) / self.height as f32,
         );
-        let dir = self.direction(uv);
-        let pdf = self.pdf(dir);
+        // The texel is known: no need to find it again from the direction.
+        let pdf = self.density(col, row, uv.y);
         (pdf > 0.0 && pdf.is_finite()).then(|| SkySample {
-            dir,
-            radiance: self.radiance(dir),
+            dir: self.direction(uv),
+            radiance: self.texels[row * self.width as usize + col],
             pdf,
         })
     }
