@@ -15,7 +15,7 @@ fn cornell() -> Scene {
     load_obj(&path).expect("bundled Cornell box loads").0
 }
 
-/// The camera of `../shared/references/cornell-box` (its README).
+/// The camera of `tests/data/references/cornell-box` (its README).
 fn reference_camera() -> CameraSettings {
     CameraSettings {
         eye: Vec3::new(0.0, 1.0, 3.9),
@@ -147,7 +147,7 @@ fn cornell_box_energy_is_in_the_expected_range() {
         f.cmplt(d / (1.0 - 0.78)).all(),
         "full {f} too bright for direct {d}"
     );
-    // The independent renderer's means (../shared/references/cornell-box/README.md),
+    // The independent renderer's means (tests/data/references/cornell-box/README.md),
     // within 4%: about 4 standard errors of this estimate.
     let reference_direct = Vec3::new(0.13861, 0.09437, 0.02939);
     let reference_full = Vec3::new(0.18547, 0.12040, 0.03437);
