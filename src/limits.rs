@@ -32,6 +32,21 @@ pub fn parse_meminfo_available(meminfo: &str) -> Option<u64> {
     value.checked_mul(unit)
 }
 
+/// The most resident memory this process has held so far (`VmHWM` of
+/// `/proc/self/status`), in bytes; `None` off Linux.
+pub fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    parse_status_peak(&status)
+}
+
+/// The `VmHWM:` line of `/proc/self/status` text, in bytes.
+pub fn parse_status_peak(status: &str) -> Option<u64> {
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let mut words = line.split_whitespace().skip(1);
+    let kib: u64 = words.next()?.parse().ok()?;
+    (words.next() == Some("kB")).then(|| kib.checked_mul(1024))?
+}
+
 /// `bytes` for people: "512 B", "3.2 MiB", "17.0 GiB".
 pub fn human_bytes(bytes: u64) -> String {
     const UNITS: [&str; 6] = ["B", "KiB", "MiB", "GiB", "TiB", "PiB"];
@@ -70,6 +85,14 @@ mod tests {
         assert_eq!(parse_meminfo_available(text), Some(23_843_344 * 1024));
         assert_eq!(parse_meminfo_available("MemTotal: 5 kB\n"), None);
         assert_eq!(parse_meminfo_available("MemAvailable: x kB\n"), None);
+    }
+
+    #[test]
+    fn peak_resident_memory_is_read_in_bytes() {
+        let text = "VmPeak:  900 kB\nVmHWM:\t   502484 kB\nVmRSS: 1 kB\n";
+        assert_eq!(parse_status_peak(text), Some(502_484 * 1024));
+        assert_eq!(parse_status_peak("VmRSS: 1 kB\n"), None);
+        assert!(peak_resident_bytes().is_some_and(|b| b > 0));
     }
 
     #[test]

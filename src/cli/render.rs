@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -337,14 +337,20 @@ fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
 }
 
 pub fn run(args: RenderArgs) -> Result<ExitCode> {
+    let started = Instant::now();
     let plan = RenderPlan::from_args(args);
     plan.check()?;
-    let loaded = load_scene(&plan)?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = plan.threads {
         pool = pool.num_threads(n as usize);
     }
     let pool = pool.build().context("cannot start worker threads")?;
+    // The loader parses in parallel: on the render's threads, as many as asked for.
+    let loaded = pool.install(|| load_scene(&plan))?;
+    let timeline = Timeline {
+        started,
+        loaded: started.elapsed(),
+    };
     let positions = &loaded.scene.mesh.positions;
     let triangles = &loaded.scene.mesh.triangles;
     // Cut-outs, unless EMBER_NO_CUTOUTS=1 turns them off: for measuring what they cost
@@ -369,18 +375,28 @@ pub fn run(args: RenderArgs) -> Result<ExitCode> {
                 None => EmbreeAccel::build(&device, positions, triangles, quality),
             }
             .context("cannot build the Embree scene")?;
-            finish_render(&plan, &loaded, &pool, &accel)
+            finish_render(&plan, &loaded, &pool, &accel, &timeline)
         }
         AccelKind::Bvh => {
             let bvh = pool
                 .install(|| Bvh::build(positions, triangles))
                 .context("cannot build the native BVH")?;
             match cutouts {
-                Some(opacity) => finish_render(&plan, &loaded, &pool, &bvh.with_filter(opacity)),
-                None => finish_render(&plan, &loaded, &pool, &bvh),
+                Some(opacity) => {
+                    finish_render(&plan, &loaded, &pool, &bvh.with_filter(opacity), &timeline)
+                }
+                None => finish_render(&plan, &loaded, &pool, &bvh, &timeline),
             }
         }
     }
+}
+
+/// When the render started and when its scene was loaded: the summary tells the time
+/// to the first sample and how much of it was loading.
+struct Timeline {
+    started: Instant,
+    /// From the start to a loaded scene (OBJ, materials, textures, environment).
+    loaded: Duration,
 }
 
 /// Renders with checkpoints and signal handling, then writes the image or shard (or,
@@ -390,6 +406,7 @@ fn finish_render<A: Accel>(
     loaded: &LoadedScene,
     pool: &rayon::ThreadPool,
     accel: &A,
+    timeline: &Timeline,
 ) -> Result<ExitCode> {
     let identity = render::identity(
         &loaded.scene,
@@ -415,7 +432,7 @@ fn finish_render<A: Accel>(
     };
     // Only now that every input has been checked: a failing run prints one line.
     report_loading(plan, loaded);
-    report_start(plan, &film);
+    report_start(plan, &film, timeline);
     let checkpointing = plan.checkpoint_every.map(|every| Checkpointing {
         every,
         write: &periodic,
@@ -443,7 +460,7 @@ fn finish_render<A: Accel>(
             save_checkpoint(&film)?;
         }
     }
-    report_finished(plan, accel.name(), &stats);
+    report_finished(plan, accel.name(), &stats, loaded.report.triangles);
     Ok(ExitCode::SUCCESS)
 }
 
@@ -498,7 +515,7 @@ fn shard_note(plan: &RenderPlan) -> String {
     }
 }
 
-fn report_start(plan: &RenderPlan, film: &Film) {
+fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline) {
     let s = &plan.settings;
     let resumed = if plan.resume {
         format!(
@@ -508,12 +525,17 @@ fn report_start(plan: &RenderPlan, film: &Film) {
     } else {
         String::new()
     };
+    let first_sample = timeline.started.elapsed();
     eprintln!(
-        "rendering {}x{} at {} spp{}{resumed}",
+        "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {:.2} s, \
+         accelerator {:.2} s)",
         s.width,
         s.height,
         s.spp,
-        shard_note(plan)
+        shard_note(plan),
+        first_sample.as_secs_f64(),
+        timeline.loaded.as_secs_f64(),
+        (first_sample - timeline.loaded).as_secs_f64(),
     );
 }
 
@@ -540,14 +562,23 @@ fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
     );
 }
 
-fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats) {
+fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangles: usize) {
     let s = &plan.settings;
     let dropped = match stats.dropped_samples {
         0 => String::new(),
         n => format!(", {n} NaN/infinite samples dropped"),
     };
+    // Peak resident memory of the whole run, per triangle: what loading at scale costs.
+    let peak = match ember::limits::peak_resident_bytes() {
+        Some(bytes) => format!(
+            ", peak memory {} ({:.0} bytes/triangle)",
+            ember::limits::human_bytes(bytes),
+            bytes as f64 / triangles.max(1) as f64
+        ),
+        None => String::new(),
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}",
+        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
         plan.output.display(),
         s.width,
         s.height,
