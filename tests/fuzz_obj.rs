@@ -18,7 +18,7 @@ use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
 use ember::integrator::IntegratorKind;
 use ember::render::{self, RenderSettings};
-use ember::scene::{load_obj_from_str, CameraSettings, Scene};
+use ember::scene::{check_against_tobj, load_obj_from_str, CameraSettings, Scene};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 
@@ -197,6 +197,9 @@ fn device() -> &'static Device {
 static LOADED: AtomicU64 = AtomicU64::new(0);
 
 fn check(input: &Input) -> Result<(), TestCaseError> {
+    // The parallel OBJ reader either leaves the input to tobj or reads it as tobj does.
+    let oracle = check_against_tobj(&input.obj, &input.mtl);
+    prop_assert!(oracle.is_ok(), "parallel reader against tobj: {:?}", oracle);
     let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl) else {
         return Ok(());
     };

@@ -7,6 +7,7 @@ mod environment;
 mod material;
 mod mesh;
 mod obj;
+mod obj_parallel;
 mod opacity;
 mod textures;
 
@@ -18,6 +19,8 @@ pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
+#[doc(hidden)]
+pub use obj_parallel::check_against_tobj;
 pub use opacity::{coin, Opacity};
 
 use glam::Vec3;

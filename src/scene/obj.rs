@@ -1,6 +1,7 @@
 //! Loading Wavefront OBJ scenes (with their MTL materials and `map_Kd` textures) through
 //! `tobj`, and validating what it returns before anything is rendered.
 
+use std::borrow::Cow;
 use std::cell::RefCell;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -44,11 +45,19 @@ fn strip_comments(text: &str) -> String {
     out
 }
 
+/// Whether `usemtl` appears in the text outside comments.
+fn mentions_usemtl(text: &str) -> bool {
+    text.match_indices("usemtl").any(|(at, _)| {
+        let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+        !text[line_start..at].contains('#')
+    })
+}
+
 /// Makes every colour statement (`Ka`, `Kd`, `Ks`, `Ke`) carry three numbers before tobj
 /// sees it: the MTL spec allows a single value for grey (`Kd 0.5` = `Kd 0.5 0.5 0.5`),
 /// and tobj 4.0 panics on fewer than three words. Zero or two values are an error
 /// naming the line.
-fn normalize_mtl_colours(text: &str) -> Result<std::borrow::Cow<'_, str>, String> {
+pub(super) fn normalize_mtl_colours(text: &str) -> Result<std::borrow::Cow<'_, str>, String> {
     fn colour(line: &str) -> Option<(&str, Vec<&str>)> {
         let mut words = line.split_whitespace();
         let key = words.next()?;
@@ -219,7 +228,7 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     }
     let text = read_text(path).map_err(io)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    load_obj_text(path, &text, &Sources::Disk { dir })
+    load_obj_text(path, text.into(), &Sources::Disk { dir })
 }
 
 /// Loads an OBJ scene from text in memory; `mtl` maps each `mtllib` name to the text of
@@ -229,17 +238,23 @@ pub fn load_obj_from_str(
     obj: &str,
     mtl: &HashMap<String, String>,
 ) -> Result<(Scene, LoadReport), SceneError> {
-    load_obj_text(Path::new("<memory>.obj"), obj, &Sources::Memory { mtl })
+    load_obj_text(
+        Path::new("<memory>.obj"),
+        obj.into(),
+        &Sources::Memory { mtl },
+    )
 }
 
 /// The one conversion from OBJ text to a scene, for files and in-memory text alike.
+/// The text is let go of once parsed, before the mesh is built.
 fn load_obj_text(
     path: &Path,
-    text: &str,
+    text: Cow<'_, str>,
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
-    let text = &strip_comments(text);
-    let parsed = parse(path, text, sources)?;
+    let names_materials = mentions_usemtl(&text);
+    let parsed = parse(path, &text, sources)?;
+    drop(text);
     let mut report = LoadReport::default();
     // In memory there is no directory to search: every texture is "not found".
     let mut search_dirs = Vec::new();
@@ -253,7 +268,7 @@ fn load_obj_text(
     let default_material = materials.len() as u32;
     materials.push(Material::default());
     let mesh = build_mesh(path, &parsed.models, default_material, &mut report)?;
-    if text.contains("usemtl") && parsed.materials.is_empty() {
+    if names_materials && parsed.materials.is_empty() {
         report.warnings.push(
             "faces name materials but no material library was loaded; they render grey".into(),
         );
@@ -280,9 +295,10 @@ struct Parsed {
     mtl_dirs: Vec<PathBuf>,
 }
 
-/// Runs tobj over the OBJ text, reading each `mtllib` ourselves so that a missing or
-/// broken library is an error naming the file, not a silently grey scene; then refuses
-/// counts that do not fit ember's indices.
+/// Reads the OBJ text (with comments) in parallel ([`obj_parallel`]), or with tobj
+/// where that declines, reading each `mtllib` ourselves so that a missing or broken
+/// library is an error naming the file, not a silently grey scene; then refuses counts
+/// that do not fit ember's indices.
 fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, SceneError> {
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
     let mtl_dirs: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
@@ -316,8 +332,14 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
         path: path.to_owned(),
         reason,
     };
-    check_face_indices(text).map_err(obj_error)?;
-    let loaded = tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl);
+    let loaded = match super::obj_parallel::load_obj(text, &load_mtl) {
+        Some(loaded) => loaded,
+        None => {
+            let text = strip_comments(text);
+            check_face_indices(&text).map_err(obj_error)?;
+            tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl)
+        }
+    };
     if let Some(e) = mtl_error.into_inner() {
         return Err(e);
     }
