@@ -74,6 +74,14 @@ impl EmbreeErrorKind {
     }
 }
 
+/// Meshes of at least this many triangles are built in Embree's compact layout
+/// (`RTC_SCENE_FLAG_COMPACT`: a 4-wide BVH whose leaves hold vertex indices instead of
+/// copies of the vertices). Measured on the 2M-triangle grid of issue 12, a render's
+/// peak memory falls from 145 to 82 bytes per triangle and the build gets faster; rays
+/// cost about the same on Sponza. Smaller meshes keep the default layout, whose hits
+/// can differ from the compact one's in the last bits.
+pub const COMPACT_FROM_TRIANGLES: usize = 1 << 20;
+
 /// Build quality of the BVH Embree builds (`rtcSetSceneBuildQuality`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 pub enum BuildQuality {
@@ -328,7 +336,8 @@ impl Device {
         check_mesh(vertices, triangles)?;
         self.check_buffer_memory(vertices.len(), triangles.len())?;
         let _ = self.take_error();
-        let mut scene = self.new_scene(quality)?;
+        let compact = triangles.len() >= COMPACT_FROM_TRIANGLES;
+        let mut scene = self.new_scene(quality, compact)?;
         let before = self.bytes_in_use();
         let geometry = self.triangle_geometry(vertices, triangles, quality, filter.as_deref())?;
         // The scene owns the filter from here: it outlives every query, and the
@@ -365,8 +374,9 @@ impl Device {
         })
     }
 
-    /// An empty robust scene of the given build quality, released when dropped.
-    fn new_scene(&self, quality: BuildQuality) -> Result<Scene, EmbreeError> {
+    /// An empty robust scene of the given build quality, in the compact layout when
+    /// asked, released when dropped.
+    fn new_scene(&self, quality: BuildQuality, compact: bool) -> Result<Scene, EmbreeError> {
         // SAFETY: the device is live (`self` holds a reference to it).
         let raw = unsafe { sys::rtcNewScene(self.handle.raw) };
         if raw.is_null() {
@@ -384,8 +394,12 @@ impl Device {
         };
         // SAFETY: `raw` is a live scene, not committed yet.
         let flags = unsafe { sys::rtcGetSceneFlags(raw) };
-        // SAFETY: as above; ROBUST is a valid scene flag in Embree 3 and 4.
-        unsafe { sys::rtcSetSceneFlags(raw, flags | sys::RTC_SCENE_FLAG_ROBUST) };
+        let layout = match compact {
+            true => sys::RTC_SCENE_FLAG_COMPACT,
+            false => 0,
+        };
+        // SAFETY: as above; ROBUST and COMPACT are valid scene flags in Embree 3 and 4.
+        unsafe { sys::rtcSetSceneFlags(raw, flags | sys::RTC_SCENE_FLAG_ROBUST | layout) };
         // SAFETY: as above.
         unsafe { sys::rtcSetSceneBuildQuality(raw, quality.raw()) };
         Ok(scene)

@@ -36,7 +36,7 @@ fn read_text(path: &Path) -> std::io::Result<String> {
 
 /// The OBJ text without comments, including those after a statement
 /// (`f 1 2 3 # quad`), which tobj would otherwise read as indices.
-fn strip_comments(text: &str) -> String {
+pub(super) fn strip_comments(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for line in text.lines() {
         out.push_str(line.split('#').next().unwrap_or(""));
@@ -47,7 +47,7 @@ fn strip_comments(text: &str) -> String {
 
 /// Whether `usemtl` appears in the text outside comments.
 fn mentions_usemtl(text: &str) -> bool {
-    text.match_indices("usemtl").any(|(at, _)| {
+    memchr::memmem::find_iter(text.as_bytes(), "usemtl").any(|at| {
         let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
         !text[line_start..at].contains('#')
     })

@@ -95,13 +95,30 @@ impl Counts {
     }
 }
 
-/// The lines of a chunk without their comments (`#` to the end of the line).
+/// The lines of a chunk without their comments (`#` to the end of the line), found
+/// with SIMD searches: one for the next `#` or line end, one more for a comment's end.
 fn lines(text: &str) -> impl Iterator<Item = &str> {
-    text.split_terminator('\n')
-        .map(|line| match memchr::memchr(b'#', line.as_bytes()) {
-            Some(i) => &line[..i],
-            None => line,
-        })
+    let bytes = text.as_bytes();
+    let mut at = 0;
+    std::iter::from_fn(move || {
+        if at >= bytes.len() {
+            return None;
+        }
+        let start = at;
+        let (end, next) = match memchr::memchr2(b'\n', b'#', &bytes[start..]) {
+            Some(i) if bytes[start + i] == b'\n' => (start + i, start + i + 1),
+            Some(i) => {
+                let comment = start + i;
+                let eol =
+                    memchr::memchr(b'\n', &bytes[comment..]).map_or(bytes.len(), |j| comment + j);
+                (comment, eol + 1)
+            }
+            None => (bytes.len(), bytes.len()),
+        };
+        at = next;
+        // Both ends are at ASCII bytes (or the end), so they are character boundaries.
+        Some(&text[start..end])
+    })
 }
 
 /// The words of a line, split where tobj splits them (Unicode white space), quickly
@@ -564,7 +581,8 @@ pub fn check_against_tobj(obj: &str, mtl: &HashMap<String, String>) -> Result<bo
         ignore_points: true,
         ignore_lines: true,
     };
-    let stripped: String = lines(obj).flat_map(|l| [l, "\n"]).collect();
+    // ember's own comment stripping, as it runs before tobj.
+    let stripped = super::obj::strip_comments(obj);
     let theirs = tobj::load_obj_buf(&mut stripped.as_bytes(), &options, load_mtl);
     let (ours, theirs) = match (ours, theirs) {
         (Ok(ours), Ok(theirs)) => (ours, theirs),
