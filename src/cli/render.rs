@@ -526,15 +526,17 @@ fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline) {
         String::new()
     };
     let first_sample = timeline.started.elapsed();
+    let loading = timeline.loaded.as_secs_f64();
+    let obj_bytes = std::fs::metadata(&plan.scene).map_or(0, |m| m.len());
     eprintln!(
-        "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {:.2} s, \
-         accelerator {:.2} s)",
+        "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {loading:.2} s \
+         at {:.0} MB/s of OBJ, accelerator {:.2} s)",
         s.width,
         s.height,
         s.spp,
         shard_note(plan),
         first_sample.as_secs_f64(),
-        timeline.loaded.as_secs_f64(),
+        obj_bytes as f64 / 1e6 / loading.max(1e-9),
         (first_sample - timeline.loaded).as_secs_f64(),
     );
 }

@@ -2,6 +2,7 @@
 //! primitive `i` for every accelerator.
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use crate::geometry::{barycentric_error, Hit, SurfaceOrigin};
 
@@ -19,15 +20,20 @@ pub struct TriangleMesh {
     pub material: Vec<u32>,
 }
 
-/// Lower and upper corners of the box around the vertices that `triangles` use.
+/// Lower and upper corners of the box around the vertices that `triangles` use, on
+/// all threads (min and max are exact, so the box does not depend on their number).
 pub fn triangle_bounds(positions: &[Vec3], triangles: &[[u32; 3]]) -> (Vec3, Vec3) {
-    triangles.iter().flatten().fold(
-        (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
-        |(lo, hi), &i| {
-            let p = positions[i as usize];
-            (lo.min(p), hi.max(p))
-        },
-    )
+    let empty = || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
+    triangles
+        .par_iter()
+        .with_min_len(1 << 16)
+        .fold(empty, |(lo, hi), triangle| {
+            triangle.iter().fold((lo, hi), |(lo, hi), &i| {
+                let p = positions[i as usize];
+                (lo.min(p), hi.max(p))
+            })
+        })
+        .reduce(empty, |(lo, hi), (l, h)| (lo.min(l), hi.max(h)))
 }
 
 /// What the integrator needs to know about the point a ray hit.

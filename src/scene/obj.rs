@@ -27,11 +27,43 @@ pub struct LoadReport {
 /// Reads a file whole; non-UTF-8 bytes (common in comments of old exporters) become
 /// U+FFFD instead of failing the load.
 fn read_text(path: &Path) -> std::io::Result<String> {
-    let bytes = std::fs::read(path)?;
+    let bytes = match read_in_parallel(path) {
+        Some(bytes) => bytes,
+        None => std::fs::read(path)?,
+    };
     Ok(match String::from_utf8(bytes) {
         Ok(s) => s,
         Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
     })
+}
+
+/// A regular file's bytes, read in pieces on all threads (a single reader leaves
+/// most of a large OBJ's load waiting on one core's copy from the page cache); `None`
+/// where that does not work (a pipe, a file that changed size), to read it plainly.
+#[cfg(unix)]
+fn read_in_parallel(path: &Path) -> Option<Vec<u8>> {
+    use rayon::prelude::*;
+    use std::os::unix::fs::FileExt;
+    const PIECE: usize = 8 << 20;
+    let file = std::fs::File::open(path).ok()?;
+    let meta = file.metadata().ok()?;
+    if !meta.is_file() {
+        return None;
+    }
+    let mut bytes = vec![0; usize::try_from(meta.len()).ok()?];
+    bytes
+        .par_chunks_mut(PIECE)
+        .enumerate()
+        .try_for_each(|(i, piece)| file.read_exact_at(piece, (i * PIECE) as u64))
+        .ok()?;
+    // Nothing past the length we read: the file did not grow meanwhile.
+    let at_end = matches!(file.read_at(&mut [0], meta.len()), Ok(0));
+    at_end.then_some(bytes)
+}
+
+#[cfg(not(unix))]
+fn read_in_parallel(_: &Path) -> Option<Vec<u8>> {
+    None
 }
 
 /// The OBJ text without comments, including those after a statement

@@ -284,9 +284,50 @@ fn parse_chunk<'a>(text: &'a str, out: &mut ChunkSlices<'_>) -> Option<ChunkFace
 /// Reads exactly `out.len()` numbers (tobj ignores any after them, as for `vt u v w`).
 fn read_floats<'a>(words: &mut impl Iterator<Item = &'a str>, out: &mut [f32]) -> Option<()> {
     for value in out {
-        *value = words.next()?.parse().ok()?;
+        let word = words.next()?;
+        *value = match plain_decimal(word.as_bytes()) {
+            Some(v) => v,
+            None => word.parse().ok()?,
+        };
     }
     Some(())
+}
+
+/// Powers of ten that are exact in `f32` (5^10 < 2^24).
+const EXACT_POWERS_OF_TEN: [f32; 11] = [1e0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e7, 1e8, 1e9, 1e10];
+
+/// The value of a plain decimal (`-12.345678`: an optional minus, digits, at most one
+/// point) as `f32::from_str` gives it, bit for bit, or `None` to leave it to that.
+/// Clinger's fast path: when the digits, read as an integer, are below 2^24 and at most
+/// ten follow the point, both the integer and the power of ten are exact in `f32`, so
+/// their one correctly rounded quotient is the correctly rounded value. That covers what
+/// exporters write (six decimals), without the general parser's work.
+#[inline]
+fn plain_decimal(bytes: &[u8]) -> Option<f32> {
+    let (negative, digits) = match bytes.split_first()? {
+        (b'-', rest) => (true, rest),
+        _ => (false, bytes),
+    };
+    let (mut mantissa, mut decimals, mut point, mut any) = (0u32, 0usize, false, false);
+    for &b in digits {
+        match b {
+            b'0'..=b'9' => {
+                mantissa = mantissa * 10 + u32::from(b - b'0');
+                if mantissa >= 1 << 24 {
+                    return None;
+                }
+                decimals += usize::from(point);
+                any = true;
+            }
+            b'.' if !point => point = true,
+            _ => return None,
+        }
+    }
+    if !any || decimals >= EXACT_POWERS_OF_TEN.len() {
+        return None;
+    }
+    let value = mantissa as f32 / EXACT_POWERS_OF_TEN[decimals];
+    Some(if negative { -value } else { value })
 }
 
 /// What follows the first space of a `usemtl` or `mtllib` line, trimmed, as tobj
@@ -627,4 +668,62 @@ fn same_models(ours: &[tobj::Model], theirs: &[tobj::Model]) -> Result<(), Strin
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plain_decimals_read_as_the_standard_parser_reads_them() {
+        let mut words: Vec<String> = [
+            "0",
+            "-0",
+            "0.0",
+            "-0.000000",
+            "1.",
+            ".5",
+            "-.5",
+            "16777215",
+            "16777216",
+            "1.6777215",
+            "0.1",
+            "0.3",
+            "-123.456789",
+            "9999999.9",
+            "0.0000000001",
+            "0.00000000001",
+            "007.50",
+            "1e5",
+            "+1",
+            "-",
+            ".",
+            "1..2",
+            "",
+            "1.2.3",
+        ]
+        .map(str::to_owned)
+        .to_vec();
+        // Six-decimal values as the grid writer and most exporters print them.
+        let mut x = 0.000_123_4f64;
+        while x < 2e7 {
+            for v in [x, -x, x * 1.000_7] {
+                words.push(format!("{v:.6}"));
+                words.push(format!("{v:.3}"));
+                words.push(format!("{v}"));
+            }
+            x *= 1.37;
+        }
+        for word in &words {
+            let expected = word.parse::<f32>().ok().map(f32::to_bits);
+            if let Some(v) = plain_decimal(word.as_bytes()) {
+                assert_eq!(Some(v.to_bits()), expected, "{word}");
+            }
+        }
+        assert_eq!(
+            plain_decimal(b"-0.000000").map(f32::to_bits),
+            Some((-0.0f32).to_bits())
+        );
+        assert!(plain_decimal(b"0.123456").is_some());
+    }
 }
