@@ -66,6 +66,8 @@ f 1 3 4
 \tf\t2  3\t4\r
 usemtl red
 v 5 5 5
+\u{a0}v 6 5 5
+v\u{0b}5 6 5
 f -1 -2 -3
 ";
 
@@ -104,6 +106,7 @@ fn unusual_statements_and_errors_are_left_to_tobj() {
         "f 1 2 3 \\\n",
         "f 1 2 3\nv 1 1 1\nf 1 2 5\n",
         "v 1 2\n",
+        "v#1 2 3\n",
         "v 1 2 3 4\n",
         "v 1 2 3 0.5 0.5 0.5\n",
         "vt 1\n",

@@ -1,5 +1,6 @@
 //! Loading Wavefront OBJ scenes (with their MTL materials and `map_Kd` textures) through
-//! `tobj`, and validating what it returns before anything is rendered.
+//! `tobj` (the geometry of ordinary files through its parallel twin, `obj_parallel`),
+//! and validating what they return before anything is rendered.
 
 use std::borrow::Cow;
 use std::cell::RefCell;

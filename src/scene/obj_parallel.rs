@@ -149,17 +149,49 @@ impl<'a> Iterator for Words<'a> {
     }
 }
 
+/// Counts the `v`, `vt` and `vn` statements of a chunk, looking only as far into each
+/// line as its first word.
 fn count_statements(text: &str) -> Counts {
     let mut counts = Counts::default();
-    for line in lines(text) {
-        match words(line).next() {
-            Some("v") => counts.v += 1,
-            Some("vt") => counts.vt += 1,
-            Some("vn") => counts.vn += 1,
+    let bytes = text.as_bytes();
+    let mut start = 0;
+    let ends = memchr::memchr_iter(b'\n', bytes).chain(std::iter::once(bytes.len()));
+    for end in ends {
+        let line = &text[start..end];
+        start = end + 1;
+        let first = match ascii_first_word(line.as_bytes()) {
+            Some(word) => word,
+            None => lines(line)
+                .next()
+                .and_then(|l| words(l).next())
+                .unwrap_or("")
+                .as_bytes(),
+        };
+        match first {
+            b"v" => counts.v += 1,
+            b"vt" => counts.vt += 1,
+            b"vn" => counts.vn += 1,
             _ => {}
         }
     }
     counts
+}
+
+/// The first word of a line (up to white space or a comment), where ASCII white space
+/// alone decides it; `None` where a non-ASCII byte or a vertical tab (white space to
+/// tobj, not to ASCII splitting) is met first.
+#[inline]
+fn ascii_first_word(line: &[u8]) -> Option<&[u8]> {
+    let blank = |b: u8| matches!(b, b' ' | b'\t' | b'\r' | 0x0c);
+    let start = line.iter().position(|&b| !blank(b)).unwrap_or(line.len());
+    let mut end = start;
+    while end < line.len() && !blank(line[end]) && line[end] != b'#' {
+        if line[end] >= 0x80 || line[end] == 0x0b {
+            return None;
+        }
+        end += 1;
+    }
+    Some(&line[start..end])
 }
 
 /// The whole file's vertex attributes, flat as tobj keeps them.
