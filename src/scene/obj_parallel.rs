@@ -37,7 +37,10 @@ where
     let chunks = split_at_lines(text, rayon::current_num_threads() * 4);
     let counts: Vec<Counts> = chunks.par_iter().map(|c| count_statements(c)).collect();
     let total = counts.iter().fold(Counts::default(), |a, c| a.plus(c));
-    if total.v > u64::from(MISSING) || total.vt > u64::from(MISSING) {
+    if [total.v, total.vt, total.vn]
+        .iter()
+        .any(|&n| n > u64::from(MISSING))
+    {
         return None;
     }
     let mut attributes = Attributes {
@@ -53,8 +56,9 @@ where
         .collect();
     let parsed = parsed?;
     let mut join = Join::new(&attributes);
-    for chunk in &parsed {
-        join.chunk(chunk, &mut load_mtl);
+    // Each chunk's corners are let go of once joined, as the models grow.
+    for chunk in parsed {
+        join.chunk(&chunk, &mut load_mtl);
     }
     Some(Ok(join.finish()))
 }
