@@ -7,10 +7,14 @@ use glam::Vec3;
 use super::{Accel, Hit, HitFilter, Ray};
 use crate::embree::{BuildQuality, Device, EmbreeError, Scene};
 
-/// A triangle mesh committed to Embree.
-pub struct EmbreeAccel {
-    scene: Scene,
+/// A triangle mesh committed to Embree, which reads the mesh's own arrays for `'m`
+/// ([`EmbreeBackend::build_shared`]) or holds copies ([`EmbreeAccel`]).
+pub struct EmbreeBackend<'m> {
+    scene: Scene<'m>,
 }
+
+/// Embree over copies of the mesh, independent of the arrays it was built from.
+pub type EmbreeAccel = EmbreeBackend<'static>;
 
 impl EmbreeAccel {
     pub fn build(
@@ -36,14 +40,31 @@ impl EmbreeAccel {
             scene: device.build_filtered_triangle_scene(vertices, triangles, quality, filter)?,
         })
     }
+}
+
+impl<'m> EmbreeBackend<'m> {
+    /// Embree reading `vertices` and `triangles` in place, without copies, where each
+    /// has room for one more item (see [`crate::embree::Device::build_shared_triangle_scene`]);
+    /// with `filter` deciding hits when there are cut-outs.
+    pub fn build_shared<F: HitFilter>(
+        device: &Device,
+        vertices: &'m Vec<Vec3>,
+        triangles: &'m Vec<[u32; 3]>,
+        quality: BuildQuality,
+        filter: Option<Arc<F>>,
+    ) -> Result<Self, EmbreeError> {
+        Ok(EmbreeBackend {
+            scene: device.build_shared_triangle_scene(vertices, triangles, quality, filter)?,
+        })
+    }
 
     /// The underlying scene, for the packet API.
-    pub fn scene(&self) -> &Scene {
+    pub fn scene(&self) -> &Scene<'m> {
         &self.scene
     }
 }
 
-impl Accel for EmbreeAccel {
+impl Accel for EmbreeBackend<'_> {
     fn name(&self) -> &'static str {
         "embree"
     }

@@ -5,7 +5,7 @@ pub mod bvh;
 mod embree;
 
 pub use self::bvh::{Bvh, BvhError, FilteredBvh};
-pub use self::embree::EmbreeAccel;
+pub use self::embree::{EmbreeAccel, EmbreeBackend};
 
 pub use crate::geometry::{Hit, HitFilter, Opaque, Ray};
 

@@ -16,7 +16,7 @@ use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
 use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
-use ember::accel::{Accel, AccelKind, Bvh, EmbreeAccel};
+use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::{shard_samples, Film};
@@ -368,13 +368,10 @@ pub fn run(args: RenderArgs) -> Result<ExitCode> {
                 device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
             }
             let quality = BuildQuality::High;
-            let accel = match cutouts {
-                Some(opacity) => {
-                    EmbreeAccel::build_filtered(&device, positions, triangles, quality, opacity)
-                }
-                None => EmbreeAccel::build(&device, positions, triangles, quality),
-            }
-            .context("cannot build the Embree scene")?;
+            // Embree reads the mesh in place: the render borrows it, no copies.
+            let accel =
+                EmbreeBackend::build_shared(&device, positions, triangles, quality, cutouts)
+                    .context("cannot build the Embree scene")?;
             finish_render(&plan, &loaded, &pool, &accel, &timeline)
         }
         AccelKind::Bvh => {

@@ -25,7 +25,7 @@ pub fn raw_rays(rays: &[Ray]) -> Vec<RawRay> {
         .collect()
 }
 
-impl Scene {
+impl Scene<'_> {
     /// How many of `rays` hit anything, each traced by one bare `rtcIntersect1`.
     pub fn count_hits_direct(&self, rays: &[RawRay]) -> usize {
         #[cfg(embree3)]

@@ -16,6 +16,7 @@ pub use direct::{raw_rays, RawRay};
 
 use std::any::Any;
 use std::ffi::{CStr, CString};
+use std::marker::PhantomData;
 use std::os::raw::{c_char, c_void};
 use std::ptr;
 use std::sync::atomic::{AtomicI64, Ordering};
@@ -308,8 +309,14 @@ impl Device {
         vertices: &[Vec3],
         triangles: &[[u32; 3]],
         quality: BuildQuality,
-    ) -> Result<Scene, EmbreeError> {
-        self.build_scene(vertices, triangles, quality, None::<Arc<Opaque>>)
+    ) -> Result<Scene<'static>, EmbreeError> {
+        self.build_scene(
+            vertices,
+            triangles,
+            Buffers::Copied,
+            quality,
+            None::<Arc<Opaque>>,
+        )
     }
 
     /// [`Device::build_triangle_scene`] where `filter` decides which intersections are
@@ -322,24 +329,56 @@ impl Device {
         triangles: &[[u32; 3]],
         quality: BuildQuality,
         filter: Arc<F>,
-    ) -> Result<Scene, EmbreeError> {
-        self.build_scene(vertices, triangles, quality, Some(filter))
+    ) -> Result<Scene<'static>, EmbreeError> {
+        self.build_scene(vertices, triangles, Buffers::Copied, quality, Some(filter))
     }
 
-    fn build_scene<F: HitFilter>(
+    /// [`Device::build_triangle_scene`] (or the filtered one) without copies of the
+    /// mesh: Embree reads `vertices` and `triangles` where they are
+    /// (`rtcSetSharedGeometryBuffer`), for as long as the scene borrows them. Embree
+    /// reads a buffer's last item with a 16-byte load, 4 bytes past its end, so each
+    /// vector needs room for one more item (`capacity() > len()`, which the borrow
+    /// keeps); without that room the scene holds copies instead.
+    pub fn build_shared_triangle_scene<'m, F: HitFilter>(
+        &self,
+        vertices: &'m Vec<Vec3>,
+        triangles: &'m Vec<[u32; 3]>,
+        quality: BuildQuality,
+        filter: Option<Arc<F>>,
+    ) -> Result<Scene<'m>, EmbreeError> {
+        let room = vertices.capacity() > vertices.len() && triangles.capacity() > triangles.len();
+        let buffers = match room {
+            true => Buffers::Shared,
+            false => Buffers::Copied,
+        };
+        self.build_scene(vertices, triangles, buffers, quality, filter)
+    }
+
+    /// The scene of one mesh. With [`Buffers::Shared`] the caller must give slices
+    /// that stay borrowed for `'m` and have 4 readable bytes past their end (see
+    /// [`Device::build_shared_triangle_scene`], the only caller that shares).
+    fn build_scene<'m, F: HitFilter>(
         &self,
         vertices: &[Vec3],
         triangles: &[[u32; 3]],
+        buffers: Buffers,
         quality: BuildQuality,
         filter: Option<Arc<F>>,
-    ) -> Result<Scene, EmbreeError> {
+    ) -> Result<Scene<'m>, EmbreeError> {
         check_mesh(vertices, triangles)?;
-        self.check_buffer_memory(vertices.len(), triangles.len())?;
+        if buffers == Buffers::Copied {
+            self.check_buffer_memory(vertices.len(), triangles.len())?;
+        }
         let _ = self.take_error();
         let compact = triangles.len() >= COMPACT_FROM_TRIANGLES;
         let mut scene = self.new_scene(quality, compact)?;
         let before = self.bytes_in_use();
-        let geometry = self.triangle_geometry(vertices, triangles, quality, filter.as_deref())?;
+        let mesh = MeshBuffers {
+            vertices,
+            triangles,
+            buffers,
+        };
+        let geometry = self.triangle_geometry(&mesh, quality, filter.as_deref())?;
         // The scene owns the filter from here: it outlives every query, and the
         // geometry (whose user data points at it) dies with the scene.
         scene.filter = filter.map(|f| f as Arc<dyn Any + Send + Sync>);
@@ -376,7 +415,11 @@ impl Device {
 
     /// An empty robust scene of the given build quality, in the compact layout when
     /// asked, released when dropped.
-    fn new_scene(&self, quality: BuildQuality, compact: bool) -> Result<Scene, EmbreeError> {
+    fn new_scene<'m>(
+        &self,
+        quality: BuildQuality,
+        compact: bool,
+    ) -> Result<Scene<'m>, EmbreeError> {
         // SAFETY: the device is live (`self` holds a reference to it).
         let raw = unsafe { sys::rtcNewScene(self.handle.raw) };
         if raw.is_null() {
@@ -391,6 +434,7 @@ impl Device {
             device: self.clone(),
             bytes: 0,
             filter: None,
+            shared: PhantomData,
         };
         // SAFETY: `raw` is a live scene, not committed yet.
         let flags = unsafe { sys::rtcGetSceneFlags(raw) };
@@ -405,13 +449,12 @@ impl Device {
         Ok(scene)
     }
 
-    /// A committed triangle geometry holding copies of `vertices` and `triangles`, with
-    /// `filter` as its filter functions when there is one. The caller keeps `filter`
-    /// alive as long as any scene holds the geometry.
+    /// A committed triangle geometry holding copies of the mesh, or reading it in
+    /// place, with `filter` as its filter functions when there is one. The caller keeps
+    /// `filter` alive as long as any scene holds the geometry.
     fn triangle_geometry<F: HitFilter>(
         &self,
-        vertices: &[Vec3],
-        triangles: &[[u32; 3]],
+        mesh: &MeshBuffers<'_>,
         quality: BuildQuality,
         filter: Option<&F>,
     ) -> Result<Geometry, EmbreeError> {
@@ -425,8 +468,24 @@ impl Device {
         let geometry = Geometry(raw);
         // SAFETY: `raw` is a live geometry, not committed yet.
         unsafe { sys::rtcSetGeometryBuildQuality(raw, quality.raw()) };
-        // Embree allocates these buffers itself, with the tail padding its 16-byte
-        // vertex loads need.
+        match mesh.buffers {
+            Buffers::Copied => self.copy_buffers(&geometry, mesh)?,
+            Buffers::Shared => self.share_buffers(&geometry, mesh)?,
+        }
+        if let Some(filter) = filter {
+            // SAFETY: the geometry is live and not committed; the caller keeps `filter`
+            // alive as long as the geometry can be queried (see `build_scene`).
+            unsafe { filter::install(raw, filter) };
+        }
+        // SAFETY: the geometry is live and its buffers are set.
+        unsafe { sys::rtcCommitGeometry(raw) };
+        Ok(geometry)
+    }
+
+    /// Gives the geometry buffers that Embree allocates itself (with the tail padding
+    /// its 16-byte loads need), filled with copies of the mesh.
+    fn copy_buffers(&self, geometry: &Geometry, mesh: &MeshBuffers<'_>) -> Result<(), EmbreeError> {
+        let (vertices, triangles) = (mesh.vertices, mesh.triangles);
         let vertex_buffer = geometry
             .new_buffer(
                 sys::RTC_BUFFER_TYPE_VERTEX,
@@ -453,15 +512,54 @@ impl Device {
         // SAFETY: as above, `triangles.len()` items at `index_buffer`, which cannot
         // overlap the caller's slice.
         unsafe { ptr::copy_nonoverlapping(triangles.as_ptr(), index_buffer, triangles.len()) };
-        if let Some(filter) = filter {
-            // SAFETY: the geometry is live and not committed; the caller keeps `filter`
-            // alive as long as the geometry can be queried (see `build_scene`).
-            unsafe { filter::install(raw, filter) };
-        }
-        // SAFETY: the geometry is live and its buffers are filled.
-        unsafe { sys::rtcCommitGeometry(raw) };
-        Ok(geometry)
+        Ok(())
     }
+
+    /// Points the geometry at the mesh's own arrays.
+    fn share_buffers(
+        &self,
+        geometry: &Geometry,
+        mesh: &MeshBuffers<'_>,
+    ) -> Result<(), EmbreeError> {
+        let slots = [
+            (
+                sys::RTC_BUFFER_TYPE_VERTEX,
+                sys::RTC_FORMAT_FLOAT3,
+                mesh.vertices.as_ptr().cast::<c_void>(),
+                mesh.vertices.len(),
+            ),
+            (
+                sys::RTC_BUFFER_TYPE_INDEX,
+                sys::RTC_FORMAT_UINT3,
+                mesh.triangles.as_ptr().cast::<c_void>(),
+                mesh.triangles.len(),
+            ),
+        ];
+        for (kind, format, data, count) in slots {
+            // SAFETY: the geometry is live and not committed; `data` points at `count`
+            // 12-byte, 4-byte aligned items (Vec3 and [u32; 3] are three 4-byte
+            // values) followed by at least 4 readable bytes, which stay borrowed and
+            // unchanged for the life of the scene (`build_shared_triangle_scene`).
+            unsafe {
+                sys::rtcSetSharedGeometryBuffer(geometry.0, kind, 0, format, data, 0, 12, count)
+            };
+        }
+        self.take_error()
+    }
+}
+
+/// Whether Embree copies the mesh into buffers of its own or reads the caller's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Buffers {
+    Copied,
+    Shared,
+}
+
+/// The mesh arrays a geometry is made from, and how Embree gets them.
+struct MeshBuffers<'a> {
+    vertices: &'a [Vec3],
+    triangles: &'a [[u32; 3]],
+    buffers: Buffers,
 }
 
 /// A triangle geometry handle, released when dropped (a scene it was attached to
@@ -517,7 +615,9 @@ fn check_mesh(vertices: &[Vec3], triangles: &[[u32; 3]]) -> Result<(), EmbreeErr
 }
 
 /// A committed Embree scene of one triangle mesh, ready for ray queries from any thread.
-pub struct Scene {
+/// `'m` is the borrow of the mesh arrays Embree reads in place, when they are shared
+/// (see [`Device::build_shared_triangle_scene`]); `'static` when Embree holds copies.
+pub struct Scene<'m> {
     raw: sys::RTCScene,
     device: Device,
     /// Bytes Embree allocated while building it (BVH, triangle copies, buffers).
@@ -526,15 +626,17 @@ pub struct Scene {
     /// (the callback reaches it through the geometry's user data); dropped after
     /// `Drop::drop` has released the scene.
     filter: Option<Arc<dyn Any + Send + Sync>>,
+    /// The shared vertex and index arrays, borrowed for as long as the scene lives.
+    shared: PhantomData<&'m [u8]>,
 }
 
 // SAFETY: a committed RTCScene is immutable and Embree documents that it may be
 // traversed from many threads at once; nothing here mutates it after commit.
-unsafe impl Send for Scene {}
+unsafe impl Send for Scene<'_> {}
 // SAFETY: as above.
-unsafe impl Sync for Scene {}
+unsafe impl Sync for Scene<'_> {}
 
-impl Drop for Scene {
+impl Drop for Scene<'_> {
     fn drop(&mut self) {
         // SAFETY: `raw` came from rtcNewScene on `self.device`, which is still alive.
         unsafe { sys::rtcReleaseScene(self.raw) };
@@ -607,7 +709,7 @@ pub const PACKET_WIDTH: usize = 8;
 #[repr(C, align(32))]
 struct LaneMask([i32; PACKET_WIDTH]);
 
-impl Scene {
+impl Scene<'_> {
     /// Bytes Embree allocated to build this scene.
     pub fn memory_bytes(&self) -> usize {
         self.bytes

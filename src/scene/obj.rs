@@ -459,6 +459,14 @@ fn build_mesh(
     report: &mut LoadReport,
 ) -> Result<TriangleMesh, SceneError> {
     let mut mesh = TriangleMesh::default();
+    // Sized once, with room for one more vertex and triangle: Embree reads these
+    // arrays in place and loads their last items 16 bytes at a time
+    // (`Device::build_shared_triangle_scene`).
+    let vertices: usize = models.iter().map(|m| m.mesh.positions.len() / 3).sum();
+    let triangles: usize = models.iter().map(|m| m.mesh.indices.len() / 3).sum();
+    mesh.positions.reserve_exact(vertices + 1);
+    mesh.triangles.reserve_exact(triangles + 1);
+    mesh.material.reserve_exact(triangles);
     let mut attributes = AttributePresence::default();
     for model in models {
         let offset = mesh.positions.len();
