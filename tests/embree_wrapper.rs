@@ -182,3 +182,48 @@ fn packets_agree_with_single_rays() {
         [Some(0), Some(0), None, None, Some(1), Some(1), None]
     );
 }
+
+/// A scene that reads the caller's arrays in place answers as one holding copies, and
+/// holds less: its memory is the BVH's alone.
+#[test]
+fn shared_buffers_answer_as_copies_do() {
+    let device = Device::new("threads=1").unwrap();
+    let (mut vertices, mut triangles) = two_triangles();
+    // Room for Embree's 16-byte load past the last item of each array.
+    vertices.reserve_exact(1);
+    triangles.reserve_exact(1);
+    vertices.spare_capacity_mut()[0].write(Vec3::ZERO);
+    triangles.spare_capacity_mut()[0].write([0; 3]);
+    let copied = device
+        .build_triangle_scene(&vertices, &triangles, BuildQuality::High)
+        .unwrap();
+    let shared = device
+        .build_shared_triangle_scene(
+            &vertices,
+            &triangles,
+            BuildQuality::High,
+            None::<std::sync::Arc<ember::accel::Opaque>>,
+        )
+        .unwrap();
+    for (x, y) in [(0.2, 0.2), (2.2, 0.2), (1.5, 0.5), (0.9, 0.9)] {
+        let ray = down_at(x, y);
+        assert_eq!(shared.intersect(&ray), copied.intersect(&ray), "{x}, {y}");
+        assert_eq!(shared.occluded(&ray), copied.occluded(&ray), "{x}, {y}");
+    }
+    assert!(shared.memory_bytes() < copied.memory_bytes());
+    // Without that room the arrays are copied, and the answers are the same.
+    let (vertices, triangles) = two_triangles();
+    assert_eq!(vertices.capacity(), vertices.len());
+    let fallback = device
+        .build_shared_triangle_scene(
+            &vertices,
+            &triangles,
+            BuildQuality::High,
+            None::<std::sync::Arc<ember::accel::Opaque>>,
+        )
+        .unwrap();
+    assert_eq!(
+        fallback.intersect(&down_at(2.2, 0.2)).map(|h| h.prim),
+        Some(1)
+    );
+}
