@@ -13,7 +13,7 @@ use crate::scene::{CameraSettings, Material, Model, Scene};
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-pub const ALGORITHM_VERSION: u32 = 5;
+pub const ALGORITHM_VERSION: u32 = 7;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
