@@ -76,11 +76,11 @@ impl Fingerprint {
         match texels {
             Texels::Srgb8(t) => {
                 self.u32s([0]);
-                self.0.update(t.as_flattened());
+                self.0.update(t);
             }
             Texels::Rgb8(t) => {
                 self.u32s([1]);
-                self.0.update(t.as_flattened());
+                self.0.update(t);
             }
             Texels::Gray8(t) => {
                 self.u32s([2]);

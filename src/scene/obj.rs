@@ -239,21 +239,27 @@ fn load_obj_text(
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
     let text = &strip_comments(text);
-    let parsed = parse(path, text, sources)?;
+    let Parsed {
+        models,
+        materials: tobj_materials,
+        mtl_dirs,
+    } = parse(path, text, sources)?;
     let mut report = LoadReport::default();
+    // Faces without a (known) material use a matte grey at the end of the list.
+    let default_material = tobj_materials.len() as u32;
+    let mesh = build_mesh(path, &models, default_material, &mut report)?;
+    // The mesh holds the geometry now: free tobj's copy before textures are decoded.
+    drop(models);
     // In memory there is no directory to search: every texture is "not found".
     let mut search_dirs = Vec::new();
     if let Sources::Disk { dir } = sources {
         search_dirs.push(dir.clone());
-        search_dirs.extend(parsed.mtl_dirs);
+        search_dirs.extend(mtl_dirs);
     }
     let mut loader = TextureLoader::new(search_dirs);
-    let mut materials = build_materials(path, &parsed.materials, &mut loader, &mut report)?;
-    // Faces without a (known) material use a matte grey at the end of the list.
-    let default_material = materials.len() as u32;
+    let mut materials = build_materials(path, &tobj_materials, &mut loader, &mut report)?;
     materials.push(Material::default());
-    let mesh = build_mesh(path, &parsed.models, default_material, &mut report)?;
-    if text.contains("usemtl") && parsed.materials.is_empty() {
+    if text.contains("usemtl") && tobj_materials.is_empty() {
         report.warnings.push(
             "faces name materials but no material library was loaded; they render grey".into(),
         );
@@ -267,7 +273,7 @@ fn load_obj_text(
     scene.alpha_maps = alpha_maps;
     report.triangles = scene.mesh.triangles.len();
     report.vertices = scene.mesh.positions.len();
-    report.materials = parsed.materials.len();
+    report.materials = tobj_materials.len();
     report.emitters = scene.emitters.len();
     Ok((scene, report))
 }

@@ -30,10 +30,10 @@ pub enum TextureKind {
 /// The texels of a [`Texture`], row 0 at the top as in the image file.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Texels {
-    /// 8-bit sRGB-encoded colour.
-    Srgb8(Vec<[u8; 3]>),
-    /// 8-bit linear RGB data.
-    Rgb8(Vec<[u8; 3]>),
+    /// 8-bit sRGB-encoded colour, 3 bytes per texel (the decoder's buffer, kept as is).
+    Srgb8(Vec<u8>),
+    /// 8-bit linear RGB data, 3 bytes per texel.
+    Rgb8(Vec<u8>),
     /// 8-bit single channel (linear).
     Gray8(Vec<u8>),
     /// Linear RGB.
@@ -79,10 +79,7 @@ impl Texture {
             ColorType::L8 | ColorType::La8 | ColorType::Rgb8 | ColorType::Rgba8
         );
         let floating = matches!(image.color(), ColorType::Rgb32F | ColorType::Rgba32F);
-        let rgb8 = |image: DynamicImage| -> Vec<[u8; 3]> {
-            let rgb = image.into_rgb8();
-            rgb.pixels().map(|p| p.0).collect()
-        };
+        let rgb8 = |image: DynamicImage| image.into_rgb8().into_raw();
         let texels = match kind {
             TextureKind::Scalar if eight_bit => Texels::Gray8(image.into_luma8().into_raw()),
             TextureKind::Scalar => Texels::GrayF32(image.to_luma32f().into_raw()),
@@ -110,8 +107,7 @@ impl Texture {
     /// Bytes the texels take.
     pub fn texel_bytes(&self) -> usize {
         match &self.texels {
-            Texels::Srgb8(t) | Texels::Rgb8(t) => 3 * t.len(),
-            Texels::Gray8(t) => t.len(),
+            Texels::Srgb8(t) | Texels::Rgb8(t) | Texels::Gray8(t) => t.len(),
             Texels::RgbF32(t) => 12 * t.len(),
             Texels::GrayF32(t) => 4 * t.len(),
         }
@@ -120,14 +116,17 @@ impl Texture {
     /// The value of texel `i` (row-major); single channels are repeated in x, y and z.
     #[inline]
     pub fn texel(&self, i: usize) -> Vec3 {
-        let data = |t: [u8; 3]| Vec3::new(t[0].into(), t[1].into(), t[2].into()) / 255.0;
+        let rgb = |t: &[u8]| [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
         match &self.texels {
             Texels::Srgb8(t) => {
                 let table = &*SRGB8_TO_LINEAR;
-                let [r, g, b] = t[i];
+                let [r, g, b] = rgb(t);
                 Vec3::new(table[r as usize], table[g as usize], table[b as usize])
             }
-            Texels::Rgb8(t) => data(t[i]),
+            Texels::Rgb8(t) => {
+                let [r, g, b] = rgb(t);
+                Vec3::new(r.into(), g.into(), b.into()) / 255.0
+            }
             Texels::Gray8(t) => Vec3::splat(f32::from(t[i]) / 255.0),
             Texels::RgbF32(t) => t[i],
             Texels::GrayF32(t) => Vec3::splat(t[i]),
