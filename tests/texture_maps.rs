@@ -83,29 +83,41 @@ fn exr(colour: Vec3) -> DynamicImage {
     DynamicImage::ImageRgb32F(Rgb32FImage::from_pixel(4, 4, Rgb(colour.to_array())))
 }
 
-fn square(half: f32, tilt: f32) -> [Vec3; 4] {
-    // The square [-half, half]² in the xy plane, turned by `tilt` about y.
-    let r = glam::Quat::from_rotation_y(tilt);
+/// The square [-half, half]² in the xy plane (normal +z), turned by `turn`.
+fn square(half: f32, turn: glam::Quat) -> [Vec3; 4] {
     [(-1.0, -1.0), (1.0, -1.0), (1.0, 1.0), (-1.0, 1.0)]
-        .map(|(x, y)| r * Vec3::new(x * half, y * half, 0.0))
+        .map(|(x, y)| turn * Vec3::new(x * half, y * half, 0.0))
 }
 
 #[test]
 fn a_constant_normal_map_shades_like_the_tilted_plane() {
     let tilt = 30f32.to_radians();
-    let n = Vec3::new(tilt.sin(), 0.0, tilt.cos());
+    // Tilted towards +u (red channel) and towards +v (green channel: +v is "up").
+    let turns = [
+        glam::Quat::from_rotation_y(tilt),
+        glam::Quat::from_rotation_x(-tilt),
+    ];
+    for turn in turns {
+        let n = turn * Vec3::Z;
+        assert_tilt_matches(n, turn);
+    }
+}
+
+/// The quad with a normal map of the constant normal `n` against the quad turned by
+/// `turn` (whose normal is `n`), under the same light and seen by the same viewer.
+fn assert_tilt_matches(n: Vec3, turn: glam::Quat) {
     let light = Vec3::new(0.6, 0.3, 2.0);
     let eye = Vec3::new(-0.8, 0.4, 3.0);
     // A glossy lobe as well as a diffuse one, so the frame matters, not just the normal.
     let material = "newmtl surface\nKd 0.5 0.4 0.3\nKs 0.2 0.2 0.2\nPr 0.5\n";
     let mapped = load(
-        &quad_and_light(square(1.0, 0.0), light),
+        &quad_and_light(square(1.0, glam::Quat::IDENTITY), light),
         &format!("{material}norm tilt.exr\n{LIGHT}"),
         &[("tilt.exr", exr(0.5 * n + Vec3::splat(0.5)))],
     )
     .unwrap();
     let tilted = load(
-        &quad_and_light(square(1.0, tilt), light),
+        &quad_and_light(square(1.0, turn), light),
         &format!("{material}{LIGHT}"),
         &[],
     )
@@ -127,9 +139,20 @@ fn a_constant_normal_map_shades_like_the_tilted_plane() {
         let relative = (a - b).abs().max_element() / b.max_element();
         assert!(
             b.min_element() > 0.0 && relative < 2e-3,
-            "{kind:?}: {a} vs {b}"
+            "{kind:?} {n}: {a} vs {b}"
         );
     }
+}
+
+/// An 8-bit flat normal map (128, 128, 255) leaves the normal within its quantisation.
+#[test]
+fn a_flat_eight_bit_normal_map_keeps_the_normal() {
+    let flat = DynamicImage::ImageRgb8(RgbImage::from_pixel(4, 4, Rgb([128, 128, 255])));
+    let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.0, 0.0, 2.0));
+    let mtl = format!("newmtl surface\nKd 0.5 0.5 0.5\nnorm flat.png\n{LIGHT}");
+    let scene = load(&obj, &mtl, &[("flat.png", flat)]).unwrap();
+    let ns = centre(&scene).ns;
+    assert!((ns - Vec3::Z).length() < 2.0 / 255.0 * 2.0, "{ns}");
 }
 
 /// A ramp `h = i / 64` over the 64 texel columns, `rows` high: slope 1 per unit of u.
@@ -149,14 +172,25 @@ fn a_height_ramp_tilts_the_normal_by_its_known_slope() {
     // EXR (exact ramp, slope 1) and 8-bit PNG (texel i holds i/255 over 256 columns:
     // slope 256/255).
     let png = DynamicImage::ImageLuma8(GrayImage::from_fn(256, 2, |x, _| Luma([x as u8])));
+    // Rising along v instead (row 0 is the top, v = 1): slope 1 in v.
+    let along_v = DynamicImage::ImageRgb32F(Rgb32FImage::from_fn(4, 64, |_, y| {
+        Rgb([(63 - y) as f32 / 64.0; 3])
+    }));
+    let (u_slope, v_slope) = (Vec3::new(-0.5, 0.0, 2.0), Vec3::new(0.0, -0.5, 2.0));
     for (file, image, slope, statement) in [
-        ("h.exr", height_ramp_exr(), 1.0f32, "bump -bm 0.5 h.exr"),
-        ("h.png", png, 256.0 / 255.0, "map_Bump -bm 0.5 h.png"),
+        ("h.exr", height_ramp_exr(), u_slope, "bump -bm 0.5 h.exr"),
+        (
+            "h.png",
+            png,
+            u_slope * Vec3::new(256.0 / 255.0, 1.0, 1.0),
+            "map_Bump -bm 0.5 h.png",
+        ),
+        ("v.exr", along_v, v_slope, "bump -bm 0.5 v.exr"),
     ] {
         let mtl = format!("newmtl surface\nKd 0.5 0.5 0.5\n{statement}\n{LIGHT}");
         let scene = load(&obj, &mtl, &[(file, image)]).unwrap();
-        let expected = Vec3::new(-0.5 * slope, 0.0, 2.0).normalize();
-        // Points away from the seam at u = 0 (where the ramp wraps).
+        let expected = slope.normalize();
+        // Points away from the seams at u, v = 0 (where the ramps wrap).
         for (u, v) in [(0.3, 0.2), (0.1, 0.1), (0.2, 0.6)] {
             let hit = Hit {
                 t: 1.0,
@@ -165,7 +199,8 @@ fn a_height_ramp_tilts_the_normal_by_its_known_slope() {
                 v,
             };
             let s = scene.surface(&hit);
-            assert!(s.uv.x > 0.05 && s.uv.x < 0.95);
+            assert!(s.uv.cmpgt(glam::Vec2::splat(0.05)).all());
+            assert!(s.uv.cmplt(glam::Vec2::splat(0.95)).all());
             assert!(
                 (s.ns - expected).length() < 1e-4,
                 "{file}: {} vs {expected}",
@@ -184,7 +219,7 @@ fn normals_mapped_below_the_surface_let_no_light_through() {
     let mtl =
         format!("newmtl surface\nKd 0.8 0.8 0.8\nKs 0.2 0.2 0.2\nPr 0.3\nnorm n.exr\n{LIGHT}");
     // The light under the quad, facing up at its back; the viewer above.
-    let obj = quad_and_light(square(1.0, 0.0), Vec3::new(0.5, 0.0, -1.0)).replace(
+    let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.5, 0.0, -1.0)).replace(
         "f 5/1 6/2 7/3\nf 5/1 7/3 8/4",
         "f 5/1 7/3 6/2\nf 5/1 8/4 7/3",
     );
@@ -221,7 +256,7 @@ fn normals_mapped_below_the_surface_let_no_light_through() {
     }
     assert!(lit > 0.0);
     // Lit from above instead, the same surface reflects light.
-    let obj = quad_and_light(square(1.0, 0.0), Vec3::new(0.5, 0.0, 2.0));
+    let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.5, 0.0, 2.0));
     let scene = load(&obj, &mtl, &[("n.exr", map)]).unwrap();
     let l = radiance_at_origin(
         &scene,
@@ -380,7 +415,7 @@ fn textured_emission_is_sampled_consistently() {
         Rgb([if x < 32 { 255 } else { 0 }; 3])
     }));
     let surface = "newmtl surface\nKd 0.5 0.5 0.5\n";
-    let obj = quad_and_light(square(1.0, 0.0), Vec3::new(0.0, 0.0, 0.5));
+    let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.0, 0.0, 0.5));
     let plain = load(&obj, &format!("{surface}{LIGHT}"), &[]).unwrap();
     let textured = load(
         &obj,
