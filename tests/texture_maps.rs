@@ -131,6 +131,9 @@ fn assert_tilt_matches(n: Vec3, turn: glam::Quat) {
     };
     let ns = mapped.surface(&hit).ns;
     assert!((ns - n).length() < 1e-5, "{ns} vs {n}");
+    // Tangents exist only where a normal map needs them.
+    assert_eq!(mapped.tangents.len(), mapped.mesh.positions.len());
+    assert!(tilted.tangents.is_empty());
     for kind in [IntegratorKind::Light, IntegratorKind::Mis] {
         let a = radiance_at_origin(&mapped, eye, kind, 20_000);
         let b = radiance_at_origin(&tilted, eye, kind, 20_000);
