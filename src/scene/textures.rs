@@ -23,8 +23,9 @@ pub(super) struct TextureLoader {
     dirs: Vec<PathBuf>,
     pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    /// Keyed by file and by how it is decoded; the alpha map of a `map_Kd` beside it.
-    texture_ids: HashMap<(PathBuf, TextureKind), (u32, Option<u32>)>,
+    /// Keyed by file, by how it is decoded and by whether it is a `map_Kd` (whose
+    /// alpha channel is an alpha map, kept beside it).
+    texture_ids: HashMap<(PathBuf, TextureKind, bool), (u32, Option<u32>)>,
     /// Keyed by file and by whether it is a `map_d` (which falls back to luminance).
     alpha_ids: HashMap<(PathBuf, bool), u32>,
 }
@@ -76,14 +77,15 @@ impl TextureLoader {
         let options = parse_statement(statement)
             .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
         let file = self.find(&options.file, slot, material)?;
-        let key = (file, kind);
+        let key = (file, kind, slot == "map_Kd");
         if let Some(&ids) = self.texture_ids.get(&key) {
             return Ok((ids, options.bump_scale));
         }
         let bytes_per_texel = if kind == TextureKind::Scalar { 4 } else { 12 };
         let image = decode(&key.0, bytes_per_texel)
             .map_err(|reason| error(&key.0, slot, material, reason))?;
-        let alpha = (slot == "map_Kd")
+        let alpha = key
+            .2
             .then(|| AlphaMap::from_alpha_channel(&image))
             .flatten()
             .map(|map| {
