@@ -133,7 +133,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             accel,
             max_depth,
             kind,
-            lights: LightSampler::new(&scene.mesh, &scene.materials)
+            lights: LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
                 .with_sky(scene.sky.clone(), scene.bounding_radius()),
         }
     }
@@ -160,13 +160,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 break;
             };
             rng.start_vertex(segment);
-            let surface = self.scene.mesh.surface(&current);
+            let surface = self.scene.surface(&current);
             radiance += throughput * self.emission(&surface, &current, ray.dir, emission_weight);
             if segment == self.max_depth {
                 break;
             }
-            let bsdf = self.scene.bsdf(&surface);
             let wo = -ray.dir;
+            let bsdf = self.scene.bsdf(&surface, wo);
             let last_vertex = segment + 1 == self.max_depth;
             let next_event = !bsdf.is_delta()
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
@@ -225,7 +225,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
             return Vec3::ZERO;
         }
-        material.emission * how.weight(|| self.lights.pdf_hit(hit.prim, dir, hit.t))
+        self.scene.emitted(surface) * how.weight(|| self.lights.pdf_hit(hit.prim, dir, hit.t))
     }
 
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
