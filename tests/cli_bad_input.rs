@@ -222,6 +222,48 @@ fn texture_that_is_not_an_image() {
 }
 
 #[test]
+fn missing_normal_map() {
+    let obj = format!("mtllib t.mtl\nusemtl wood\n{TRIANGLE}");
+    render_files(
+        &[
+            ("scene.obj", obj.as_bytes()),
+            (
+                "t.mtl",
+                b"newmtl wood\nKd 1 1 1\nnorm -bm 1 wood normals.png\n",
+            ),
+        ],
+        &[],
+        "wood normals.png",
+    );
+}
+
+#[test]
+fn unknown_texture_option() {
+    let obj = format!("mtllib t.mtl\nusemtl wood\n{TRIANGLE}");
+    render_files(
+        &[
+            ("scene.obj", obj.as_bytes()),
+            ("t.mtl", b"newmtl wood\nKd 1 1 1\nbump -bogus 2 h.png\n"),
+        ],
+        &[],
+        "-bogus",
+    );
+}
+
+#[test]
+fn metallic_out_of_range() {
+    let obj = format!("mtllib t.mtl\nusemtl wood\n{TRIANGLE}");
+    render_files(
+        &[
+            ("scene.obj", obj.as_bytes()),
+            ("t.mtl", b"newmtl wood\nKd 1 1 1\nPm 1.5\n"),
+        ],
+        &[],
+        "Pm",
+    );
+}
+
+#[test]
 fn missing_scene_file() {
     let dir = tempfile::tempdir().unwrap();
     let out = ember(&["render", "nowhere.obj", "-o", "out.png"], dir.path());

@@ -326,15 +326,17 @@ fn all_integrators_converge_to_the_direct_lighting_reference() {
 /// Glossy floor, rough metal box and rough coated box: every integrator converges to
 /// the independent renderer's image at the rate 1/spp, and `mis` is within the noise
 /// the independent renderer itself has (relMSE ≈ 1.37/spp with independent samples,
-/// plus the reference's own 3.3e-4). The book's mixture, one sample per vertex, stays
-/// within 4× of `mis` (2.8× at 256 spp).
+/// plus the reference's own 3.3e-4). The book's mixture, one sample per vertex and no
+/// shadow rays, stays within 4.5× of `mis` (4.1× here: Russian roulette from vertex 6
+/// lowered `mis`'s error by a quarter and left the mixture's, which its void light
+/// draws dominate, where it was).
 #[test]
 fn all_integrators_converge_to_the_glossy_reference() {
     let errors = converges_to(&GLOSSY_MIX, 16, 64);
     let mis = mis_within_the_peer(&errors, 64, 1.37, 3.3e-4);
     let mixture = error_of(&errors, IntegratorKind::Mixture);
     assert!(
-        mixture < 4.0 * mis,
+        mixture < 4.5 * mis,
         "mixture {mixture:.3e} against mis {mis:.3e}"
     );
 }

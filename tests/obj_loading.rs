@@ -189,7 +189,7 @@ fn mtl_mapping_takes_the_first_rule_that_applies() {
         ns,
         ni,
         illum,
-        ke: None,
+        ..MtlValues::default()
     };
     // Rule 1: illum 4, 6, 7, 9 is glass whatever else is set; Ni ≤ 1 or absent is 1.5.
     for illum in [4, 6, 7, 9] {

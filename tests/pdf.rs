@@ -97,7 +97,11 @@ fn light_scene(occluded: bool) -> Built {
 }
 
 fn lights_of(built: &Built) -> LightSampler {
-    LightSampler::new(&built.scene.mesh, &built.scene.materials)
+    LightSampler::new(
+        &built.scene.mesh,
+        &built.scene.materials,
+        &built.scene.textures,
+    )
 }
 
 /// Checks a [`Pdf`] at the origin of `built`'s scene: its value for a direction is

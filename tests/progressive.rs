@@ -268,12 +268,21 @@ fn the_scene_hash_sees_every_value_that_shapes_the_image() {
         (
             "a texture",
             Box::new(|s| {
-                s.textures.push(ember::scene::Texture {
-                    width: 1,
-                    height: 1,
-                    texels: vec![glam::Vec3::ONE],
-                })
+                s.textures
+                    .push(std::sync::Arc::new(ember::scene::Texture::from_linear(
+                        1,
+                        1,
+                        vec![glam::Vec3::ONE],
+                    )))
             }),
+        ),
+        (
+            "a normal map",
+            Box::new(|s| s.materials[0].maps.normal = Some(0)),
+        ),
+        (
+            "a roughness",
+            Box::new(|s| s.materials[0].roughness = Some(0.5)),
         ),
         // The name does not shape the image.
     ];

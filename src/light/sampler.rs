@@ -1,17 +1,22 @@
 //! Choosing points on a scene's emissive triangles, and the solid-angle density of
 //! doing so: the light half of "Ray Tracing: The Rest of Your Life".
 //!
-//! A triangle is chosen in proportion to its power (area × luminance of `Ke`) from an
+//! A triangle is chosen in proportion to its power (area × luminance of `Ke`, times the
+//! mean of its `map_Ke` texture when it has one) from an
 //! alias table built once per scene, so the cost per sample does not grow with the
 //! number of lights; then a uniform point on it. Seen from a point `p`, a point `q` on
 //! triangle `i` (area `A_i`, chosen with probability `P_i`) has the density in solid
 //! angle `P_i / A_i · |q − p|² / cos α`, where α is the angle between the triangle's
 //! emitting normal and the direction back to `p`.
 //!
+//! A textured emitter's radiance at the sampled point is read from its texture, as it
+//! is where a ray hits it, so next-event estimation and emission found by BSDF rays
+//! agree; only the choice of triangle uses the texture's mean.
+//!
 //! Emitters are one-sided: they emit on the side their counter-clockwise normal points
 //! to. A point seen from behind has density 0: it is never a useful light sample.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -19,7 +24,7 @@ use std::sync::Arc;
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
 use crate::sampling::{uniform_triangle, AliasTable, Rng};
-use crate::scene::{Environment, Material, TriangleMesh};
+use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
 /// The scene's emitters with a power-proportional distribution over them.
 #[derive(Clone, Debug, Default)]
@@ -29,6 +34,8 @@ pub struct LightSampler {
     /// What sampling needs of each emitter, copied out of the mesh so that a sample
     /// touches one 64-byte record instead of indices, vertices and materials.
     emitters: Vec<Emitter>,
+    /// The `map_Ke` textures emitters name (`Emitter::map`).
+    maps: Vec<Arc<Texture>>,
     table: Option<AliasTable>,
     /// `π Σ A·lum(Ke)` over the emitters: their power, weighed against the sky's.
     power: f32,
@@ -115,7 +122,14 @@ struct Emitter {
     /// Probability of choosing this triangle divided by its area: the density per
     /// unit area of a sampled point on it.
     area_density: f32,
+    /// Index into `maps` of the texture that multiplies `emission`, or [`NO_MAP`].
+    map: u32,
+    /// Texture coordinates of the corners (read only with a map).
+    uvs: [Vec2; 3],
 }
+
+/// Marks an emitter without an emission texture.
+const NO_MAP: u32 = u32::MAX;
 
 /// A point chosen on a light, as seen from the point it was chosen for.
 #[derive(Clone, Copy, Debug)]
@@ -137,16 +151,19 @@ pub struct LightSample {
 
 impl LightSampler {
     /// Builds the distribution over the triangles of `mesh` whose material emits
-    /// (O(n), once per scene).
-    pub fn new(mesh: &TriangleMesh, materials: &[Material]) -> Self {
+    /// (O(n), once per scene); `textures` are the scene's, for `map_Ke`.
+    pub fn new(mesh: &TriangleMesh, materials: &[Material], textures: &[Arc<Texture>]) -> Self {
         let material = |t: u32| &materials[mesh.material[t as usize] as usize];
-        let emission = |t: u32| material(t).emission;
         let prims: Vec<u32> = (0..mesh.triangles.len() as u32)
             .filter(|&t| material(t).is_emissive())
             .collect();
+        let mut maps = EmissionMaps::new(textures);
         let weights: Vec<f32> = prims
             .iter()
-            .map(|&t| mesh.area(t) * luminance(emission(t)).max(0.0))
+            .map(|&t| {
+                let mean = material(t).emission * maps.mean(material(t).maps.emission);
+                mesh.area(t) * luminance(mean).max(0.0)
+            })
             .collect();
         let table = AliasTable::new(&weights);
         let emitters: Vec<Emitter> = prims
@@ -159,8 +176,10 @@ impl LightSampler {
                 Emitter {
                     vertices: [a, b, c],
                     normal: (b - a).cross(c - a).normalize_or_zero(),
-                    emission: emission(t),
+                    emission: material(t).emission,
                     area_density: if area > 0.0 { probability / area } else { 0.0 },
+                    map: maps.index(material(t).maps.emission),
+                    uvs: corner_uvs(mesh, t),
                 }
             })
             .collect();
@@ -168,6 +187,7 @@ impl LightSampler {
             prims,
             bounds: EmitterBounds::new(&emitters),
             emitters,
+            maps: maps.used,
             table,
             power: PI * weights.iter().sum::<f32>(),
             sky: None,
@@ -299,8 +319,19 @@ impl LightSampler {
             }),
             pdf,
             target: LightTarget::Emitter(self.prims[i]),
-            emission: emitter.emission,
+            emission: self.emission_at(emitter, b),
         })
+    }
+
+    /// The radiance an emitter emits at barycentrics `b`.
+    #[inline]
+    fn emission_at(&self, emitter: &Emitter, b: [f32; 3]) -> Vec3 {
+        if emitter.map == NO_MAP {
+            return emitter.emission;
+        }
+        let [u0, u1, u2] = emitter.uvs;
+        let uv = b[0] * u0 + b[1] * u1 + b[2] * u2;
+        emitter.emission * self.maps[emitter.map as usize].sample(uv).max(Vec3::ZERO)
     }
 
     fn sample_sky(&self, u_row: f64, u_column: f64) -> Option<LightSample> {
@@ -338,6 +369,50 @@ impl LightSampler {
         } else {
             0.0
         }
+    }
+}
+
+/// The texture coordinates of triangle `t`'s corners; without any, its barycentrics
+/// (as in `TriangleMesh::surface`).
+fn corner_uvs(mesh: &TriangleMesh, t: u32) -> [Vec2; 3] {
+    if mesh.uvs.is_empty() {
+        return [Vec2::ZERO, Vec2::X, Vec2::Y];
+    }
+    mesh.triangles[t as usize].map(|i| mesh.uvs[i as usize])
+}
+
+/// The emission textures the emitters use, each kept once with its mean.
+struct EmissionMaps<'a> {
+    textures: &'a [Arc<Texture>],
+    /// Scene texture id → (index in `used`, mean value).
+    seen: Vec<Option<(u32, Vec3)>>,
+    used: Vec<Arc<Texture>>,
+}
+
+impl<'a> EmissionMaps<'a> {
+    fn new(textures: &'a [Arc<Texture>]) -> Self {
+        EmissionMaps {
+            textures,
+            seen: vec![None; textures.len()],
+            used: Vec::new(),
+        }
+    }
+
+    fn entry(&mut self, id: u32) -> (u32, Vec3) {
+        *self.seen[id as usize].get_or_insert_with(|| {
+            let texture = &self.textures[id as usize];
+            self.used.push(texture.clone());
+            ((self.used.len() - 1) as u32, texture.mean().max(Vec3::ZERO))
+        })
+    }
+
+    /// The mean of texture `id`, or 1 for no texture.
+    fn mean(&mut self, id: Option<u32>) -> Vec3 {
+        id.map_or(Vec3::ONE, |id| self.entry(id).1)
+    }
+
+    fn index(&mut self, id: Option<u32>) -> u32 {
+        id.map_or(NO_MAP, |id| self.entry(id).0)
     }
 }
 

@@ -8,14 +8,14 @@ use xxhash_rust::xxh3::Xxh3;
 use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
-use crate::scene::{CameraSettings, Material, Model, Scene};
+use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-/// (6: Embree builds meshes of a million triangles or more in its compact layout,
+/// (9: Embree builds meshes of a million triangles or more in its compact layout,
 /// whose hits can differ in the last bits.)
-pub const ALGORITHM_VERSION: u32 = 6;
+pub const ALGORITHM_VERSION: u32 = 9;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
@@ -84,6 +84,31 @@ impl Fingerprint {
         self.f32s(values.into_iter().flat_map(|v| v.to_array()));
     }
 
+    fn texels(&mut self, texels: &Texels) {
+        match texels {
+            Texels::Srgb8(t) => {
+                self.u32s([0]);
+                self.0.update(t);
+            }
+            Texels::Rgb8(t) => {
+                self.u32s([1]);
+                self.0.update(t);
+            }
+            Texels::Gray8(t) => {
+                self.u32s([2]);
+                self.0.update(t);
+            }
+            Texels::RgbF32(t) => {
+                self.u32s([3]);
+                self.vec3s(t);
+            }
+            Texels::GrayF32(t) => {
+                self.u32s([4]);
+                self.f32s(t.iter().copied());
+            }
+        }
+    }
+
     /// A list's length first, so that `[a, b] + [c]` and `[a] + [b, c]` differ.
     fn len(&mut self, n: usize) {
         self.0.update(&(n as u64).to_le_bytes());
@@ -98,9 +123,42 @@ impl Fingerprint {
             specular,
             emission,
             model,
+            roughness,
+            shininess,
+            metallic,
+            maps,
             opacity,
             opacity_map,
         } = m;
+        let id = |t: Option<u32>| t.map_or(u32::MAX, |t| t);
+        let MaterialMaps {
+            specular: specular_map,
+            shininess: shininess_map,
+            emission: emission_map,
+            roughness: roughness_map,
+            metallic: metallic_map,
+            bump,
+            bump_scale,
+            normal,
+        } = *maps;
+        self.u32s(
+            [
+                specular_map,
+                shininess_map,
+                emission_map,
+                roughness_map,
+                metallic_map,
+                bump,
+                normal,
+            ]
+            .map(id),
+        );
+        self.f32s([
+            roughness.unwrap_or(-1.0),
+            shininess.unwrap_or(-1.0),
+            *metallic,
+            bump_scale,
+        ]);
         // Only cut-outs are hashed, so that opaque scenes keep the fingerprint they had
         // before opacity existed (and their checkpoints stay resumable).
         if !m.is_opaque() {
@@ -149,7 +207,7 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     h.len(scene.textures.len());
     for t in &scene.textures {
         h.u32s([t.width, t.height]);
-        h.vec3s(&t.texels);
+        h.texels(&t.texels);
     }
     if !scene.alpha_maps.is_empty() {
         h.len(scene.alpha_maps.len());

@@ -6,7 +6,9 @@
 //! - the middle column looks along −z (where the default camera looks), and columns
 //!   run towards +x: `φ = atan2(x, −z)`, `u = ½ + φ / 2π`, `v = θ / π`;
 //! - `--env-rotate` turns the map about +y by that many degrees (counter-clockwise
-//!   seen from above).
+//!   seen from above);
+//! - Mitsuba's lat-long maps put `u = 0` at −z, half a turn from ours, so its `envmap`
+//!   turned R° about +y is ours turned R − 180 (`tests/env_convention.rs`).
 //!
 //! Radiance is piecewise constant over texels (nearest lookup), so the sampling density
 //! can match it exactly: a texel is chosen by two alias tables (a row by its total

@@ -8,15 +8,27 @@
 //! |---|---|
 //! | `illum` 4, 6, 7 or 9 | smooth glass, index `Ni` (1.5 if absent or ≤ 1); `Tf`, `Ns`, `Ks` ignored |
 //! | `illum` 3 or 5, or `Ks` > 0 with `Kd` = 0 and no `map_Kd` | GGX conductor, roughness α, Fresnel ≡ `Ks` |
-//! | `Kd` (or `map_Kd`) > 0 and `Ks` > 0 | Lambert `Kd·(1−Ks)` + GGX lobe, roughness α, Fresnel ≡ `Ks` |
+//! | `Kd` (or `map_Kd`) > 0 and (`Ks` > 0, `map_Ks` or `Pm`/`map_Pm`) | Lambert `Kd·(1−Ks)` + GGX lobe, roughness α, Fresnel ≡ `Ks` |
 //! | otherwise | Lambert `Kd` (or `map_Kd`) |
 //!
+//! `Pr` (the PBR extension's roughness), when given, sets `α = Pr²` instead of `Ns`
+//! (the perceptual-roughness convention of glTF and Disney: α grows as the square).
+//! `Pm` (metallic, `m`) blends the last two rows toward a conductor whose Fresnel is
+//! the diffuse colour: Lambert `Kd·(1−Ks)·(1−m)` + GGX with Fresnel `Ks·(1−m) + Kd·m`,
+//! exactly `(1−m)·dielectric + m·metal` since both share α. It leaves glass and the
+//! conductor row alone: their `Kd` is not a metal's colour (converters write `Kd 0`,
+//! `Ks` = F0, `illum 3` for metals).
+//!
+//! Texture maps replace or multiply their constants at each point: `map_Kd` and
+//! `map_Ks` replace `Kd` and `Ks`; `map_Ke`, `map_Pr`, `map_Pm` and `map_Ns` multiply
+//! `Ke`, `Pr`, `Pm` and `Ns` (each taken as 1 when only its map is given, except `Ns`).
+//!
 //! `Kd` and `Ks` are clamped to [0, 1] per channel, so no material reflects more light
-//! than it receives. Any material with `Ke` > 0 also emits `Ke` from the side its
-//! triangles' counter-clockwise winding faces, and still reflects with its BSDF. Every
-//! surface but glass is two-sided.
+//! than it receives. Any material with `Ke` > 0 (or `map_Ke`) also emits from the side
+//! its triangles' counter-clockwise winding faces, and still reflects with its BSDF.
+//! Every surface but glass is two-sided.
 
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 use crate::bsdf::Bsdf;
 
@@ -33,6 +45,33 @@ pub enum Model {
     Glass { ior: f32 },
 }
 
+/// The texture maps of a material: indices into the scene's textures.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MaterialMaps {
+    /// `map_Ks` (colour): replaces `Ks`.
+    pub specular: Option<u32>,
+    /// `map_Ns` (scalar): multiplies `Ns`.
+    pub shininess: Option<u32>,
+    /// `map_Ke` (colour): multiplies `Ke`.
+    pub emission: Option<u32>,
+    /// `map_Pr` (scalar): multiplies `Pr`.
+    pub roughness: Option<u32>,
+    /// `map_Pm` (scalar): multiplies `Pm`.
+    pub metallic: Option<u32>,
+    /// `bump` / `map_Bump` (scalar height map) and its `-bm` multiplier.
+    pub bump: Option<u32>,
+    pub bump_scale: f32,
+    /// `norm` (tangent-space normal map, RGB data).
+    pub normal: Option<u32>,
+}
+
+impl MaterialMaps {
+    /// Whether the shading normal is perturbed by a map.
+    pub fn perturbs_normal(&self) -> bool {
+        self.bump.is_some() || self.normal.is_some()
+    }
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
@@ -42,9 +81,16 @@ pub struct Material {
     pub diffuse_texture: Option<u32>,
     /// `Ks`: the Fresnel factor of the GGX lobe (linear RGB, in [0, 1]).
     pub specular: Vec3,
-    /// `Ke`: emitted radiance.
+    /// `Ke`: emitted radiance (1 where only `map_Ke` is given).
     pub emission: Vec3,
     pub model: Model,
+    /// `Pr`: the roughness the model's α comes from, when given (α = `Pr²`).
+    pub roughness: Option<f32>,
+    /// `Ns`, when `map_Ns` needs it (α is computed per point from `Ns × map`).
+    pub shininess: Option<f32>,
+    /// `Pm`: metallic, in [0, 1].
+    pub metallic: f32,
+    pub maps: MaterialMaps,
     /// `d` (or `1 − Tr`): how much of the surface is there, in `[0, 1]`; 1 is opaque.
     /// Multiplies `opacity_map`. See [`super::Opacity`].
     pub opacity: f32,
@@ -62,6 +108,10 @@ impl Default for Material {
             specular: Vec3::ZERO,
             emission: Vec3::ZERO,
             model: Model::Lambert,
+            roughness: None,
+            shininess: None,
+            metallic: 0.0,
+            maps: MaterialMaps::default(),
             opacity: 1.0,
             opacity_map: None,
         }
@@ -77,6 +127,25 @@ pub struct MtlValues {
     pub ns: Option<f32>,
     pub ni: Option<f32>,
     pub illum: Option<u8>,
+    /// `Pr`: roughness in [0, 1].
+    pub pr: Option<f32>,
+    /// `Pm`: metallic in [0, 1].
+    pub pm: Option<f32>,
+    /// The texture maps other than `map_Kd`.
+    pub maps: MaterialMaps,
+}
+
+/// What a material is at one surface point, once its textures are read.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceParams {
+    /// Diffuse colour (`Kd` or `map_Kd`), in [0, 1].
+    pub albedo: Vec3,
+    /// `Ks` or `map_Ks`, in [0, 1].
+    pub specular: Vec3,
+    /// GGX roughness.
+    pub alpha: f32,
+    /// Metallic, in [0, 1].
+    pub metallic: f32,
 }
 
 /// GGX roughness from a Phong exponent: `sqrt(2 / (Ns + 2))`, `Ns` absent or negative
@@ -85,23 +154,39 @@ pub fn alpha_from_ns(ns: Option<f32>) -> f32 {
     (2.0 / (ns.unwrap_or(0.0).max(0.0) + 2.0)).sqrt()
 }
 
+/// GGX roughness from the PBR extension's `Pr`: `α = Pr²`, `Pr` clamped to [0, 1].
+pub fn alpha_from_pr(pr: f32) -> f32 {
+    let pr = pr.clamp(0.0, 1.0);
+    pr * pr
+}
+
 impl Material {
     /// Applies the mapping table in the module documentation.
     pub fn from_mtl(name: &str, mtl: &MtlValues, diffuse_texture: Option<u32>) -> Material {
         let unit = |c: Option<Vec3>| c.unwrap_or(Vec3::ZERO).clamp(Vec3::ZERO, Vec3::ONE);
         let (kd, ks) = (unit(mtl.kd), unit(mtl.ks));
-        let ke = mtl.ke.unwrap_or(Vec3::ZERO).max(Vec3::ZERO);
-        let alpha = alpha_from_ns(mtl.ns);
+        let maps = mtl.maps;
+        let ke = match (mtl.ke, maps.emission) {
+            (None, Some(_)) => Vec3::ONE,
+            (ke, _) => ke.unwrap_or(Vec3::ZERO).max(Vec3::ZERO),
+        };
+        let alpha = mtl.pr.map_or_else(|| alpha_from_ns(mtl.ns), alpha_from_pr);
+        // With only `map_Pm`, the map is the metallic value (it multiplies a `Pm` of 1).
+        let metallic = match (mtl.pm, maps.metallic) {
+            (None, Some(_)) => 1.0,
+            (pm, _) => pm.unwrap_or(0.0).clamp(0.0, 1.0),
+        };
         let illum = mtl.illum.unwrap_or(2);
         let has_diffuse = kd.max_element() > 0.0 || diffuse_texture.is_some();
-        let has_specular = ks.max_element() > 0.0;
+        let has_specular = ks.max_element() > 0.0 || maps.specular.is_some();
+        let has_metal = metallic > 0.0;
         let model = if matches!(illum, 4 | 6 | 7 | 9) {
             Model::Glass {
                 ior: mtl.ni.filter(|&n| n > 1.0).unwrap_or(1.5),
             }
         } else if matches!(illum, 3 | 5) || (has_specular && !has_diffuse) {
             Model::Conductor { alpha }
-        } else if has_diffuse && has_specular {
+        } else if has_diffuse && (has_specular || has_metal) {
             Model::Coated { alpha }
         } else {
             Model::Lambert
@@ -113,6 +198,10 @@ impl Material {
             specular: ks,
             emission: ke,
             model,
+            roughness: mtl.pr.map(|pr| pr.clamp(0.0, 1.0)),
+            shininess: mtl.ns,
+            metallic,
+            maps,
             opacity: 1.0,
             opacity_map: None,
         }
@@ -127,16 +216,36 @@ impl Material {
         self.emission.max_element() > 0.0
     }
 
-    /// The BSDF at a surface point whose diffuse reflectance (`Kd` or its texture) is
-    /// `albedo`, with unit shading normal `ns` and geometric normal `ng` on one side.
-    #[inline]
-    pub fn bsdf(&self, albedo: Vec3, ns: Vec3, ng: Vec3) -> Bsdf {
+    /// The GGX roughness of the model, before any map.
+    pub fn alpha(&self) -> f32 {
         match self.model {
-            Model::Lambert => Bsdf::lambert(albedo, ns, ng),
-            Model::Conductor { alpha } => Bsdf::glossy(Vec3::ZERO, self.specular, alpha, ns, ng),
-            Model::Coated { alpha } => {
-                Bsdf::glossy(albedo * (1.0 - self.specular), self.specular, alpha, ns, ng)
+            Model::Conductor { alpha } | Model::Coated { alpha } => alpha,
+            Model::Lambert | Model::Glass { .. } => 1.0,
+        }
+    }
+
+    /// GGX roughness at a point where `map_Pr` reads `roughness_map` and `map_Ns`
+    /// reads `shininess_map` (each `None` when the material has no such map).
+    pub fn alpha_at(&self, roughness_map: Option<f32>, shininess_map: Option<f32>) -> f32 {
+        match (roughness_map, self.roughness, shininess_map) {
+            (Some(t), pr, _) => alpha_from_pr(pr.unwrap_or(1.0) * t),
+            (None, None, Some(t)) => alpha_from_ns(Some(self.shininess.unwrap_or(0.0) * t)),
+            _ => self.alpha(),
+        }
+    }
+
+    /// The BSDF at a surface point with parameters `p`, with unit shading normal `ns`
+    /// and geometric normal `ng` on one side.
+    #[inline]
+    pub fn bsdf(&self, p: &SurfaceParams, ns: Vec3, ng: Vec3) -> Bsdf {
+        match self.model {
+            Model::Lambert | Model::Coated { .. } => {
+                let m = p.metallic;
+                let diffuse = p.albedo * (1.0 - p.specular) * (1.0 - m);
+                let specular = p.specular * (1.0 - m) + p.albedo * m;
+                Bsdf::glossy(diffuse, specular, p.alpha, ns, ng)
             }
+            Model::Conductor { .. } => Bsdf::glossy(Vec3::ZERO, p.specular, p.alpha, ns, ng),
             Model::Glass { ior } => Bsdf::dielectric(ior, ns, ng),
         }
     }
@@ -144,35 +253,5 @@ impl Material {
     /// Whether the diffuse reflectance is read at all (glass and conductors ignore it).
     pub fn uses_albedo(&self) -> bool {
         matches!(self.model, Model::Lambert | Model::Coated { .. })
-    }
-}
-
-/// An RGB texture in linear colour, looked up with wrapping and bilinear filtering.
-#[derive(Clone, Debug)]
-pub struct Texture {
-    pub width: u32,
-    pub height: u32,
-    pub texels: Vec<Vec3>,
-}
-
-impl Texture {
-    /// The colour at `uv`; `(0, 0)` is the bottom-left of the image (OBJ convention).
-    pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let x = uv.x.rem_euclid(1.0) * w - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * h - 0.5;
-        if !(x.is_finite() && y.is_finite()) {
-            return Vec3::ZERO;
-        }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let texel = |xi: f32, yi: f32| {
-            let xi = (xi as i64).rem_euclid(self.width as i64) as usize;
-            let yi = (yi as i64).rem_euclid(self.height as i64) as usize;
-            self.texels[yi * self.width as usize + xi]
-        };
-        let top = texel(x0, y0).lerp(texel(x0 + 1.0, y0), fx);
-        let bottom = texel(x0, y0 + 1.0).lerp(texel(x0 + 1.0, y0 + 1.0), fx);
-        top.lerp(bottom, fy)
     }
 }

@@ -6,28 +6,37 @@ mod camera;
 mod environment;
 mod material;
 mod mesh;
+mod normal_maps;
 mod obj;
 mod obj_parallel;
 mod opacity;
+mod tangents;
+mod texture;
 mod textures;
 
 pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings};
 pub use environment::{Environment, SkySample};
-pub use material::{alpha_from_ns, Material, Model, MtlValues, Texture};
+pub use material::{
+    alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
+};
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
+pub use normal_maps::{bump, keep_reflection_above, normal_map, uv_derivatives};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
 pub use opacity::{coin, Opacity};
+pub use tangents::mikktspace_tangents;
+pub use texture::{Texels, Texture, TextureKind};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3, Vec4};
 use std::path::PathBuf;
 use std::sync::Arc;
 
 use crate::bsdf::Bsdf;
+use crate::geometry::Hit;
 
 /// Why a scene could not be loaded. Each message is one line that names the file.
 #[derive(Debug, thiserror::Error)]
@@ -77,7 +86,10 @@ pub enum SceneError {
 pub struct Scene {
     pub mesh: TriangleMesh,
     pub materials: Vec<Material>,
-    pub textures: Vec<Texture>,
+    pub textures: Vec<Arc<Texture>>,
+    /// Per-vertex MikkTSpace tangents (xyz, bitangent sign in w) when some material
+    /// has a normal map; empty otherwise.
+    pub tangents: Vec<Vec4>,
     /// Opacity maps of the materials' cut-outs (`Material::opacity_map`), shared with
     /// the accelerator's [`Opacity`] filter.
     pub alpha_maps: Vec<Arc<AlphaMap>>,
@@ -89,15 +101,24 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Assembles a scene and finds its emitters.
-    pub fn new(mesh: TriangleMesh, materials: Vec<Material>, textures: Vec<Texture>) -> Self {
+    /// Assembles a scene, finds its emitters and, when a material has a normal map,
+    /// the tangents of that material's triangles.
+    pub fn new(mesh: TriangleMesh, materials: Vec<Material>, textures: Vec<Arc<Texture>>) -> Self {
         let emitters = (0..mesh.triangles.len() as u32)
             .filter(|&t| materials[mesh.material[t as usize] as usize].is_emissive())
             .collect();
+        let normal_mapped: Vec<u32> = (0..mesh.triangles.len() as u32)
+            .filter(|&t| {
+                let m = &materials[mesh.material[t as usize] as usize];
+                m.maps.normal.is_some()
+            })
+            .collect();
+        let tangents = mikktspace_tangents(&mesh, &normal_mapped);
         Scene {
             mesh,
             materials,
             textures,
+            tangents,
             alpha_maps: Vec::new(),
             emitters,
             sky: None,
@@ -108,28 +129,121 @@ impl Scene {
         &self.materials[surface.material as usize]
     }
 
+    fn texture(&self, id: u32) -> &Texture {
+        &self.textures[id as usize]
+    }
+
+    /// The surface at a hit, with its shading normal perturbed by the material's bump
+    /// or normal map.
+    #[inline]
+    pub fn surface(&self, hit: &Hit) -> SurfacePoint {
+        let mut surface = self.mesh.surface(hit);
+        let maps = &self.material(&surface).maps;
+        if maps.perturbs_normal() && !self.mesh.uvs.is_empty() {
+            surface.ns = self.perturbed_normal(hit, &surface);
+        }
+        surface
+    }
+
+    /// The shading normal a bump map (or else a normal map) gives at a hit.
+    fn perturbed_normal(&self, hit: &Hit, surface: &SurfacePoint) -> Vec3 {
+        let maps = &self.material(surface).maps;
+        let corners = self.mesh.triangles[hit.prim as usize].map(|i| i as usize);
+        if let Some(id) = maps.bump {
+            let p = corners.map(|i| self.mesh.positions[i]);
+            let uv: [Vec2; 3] = corners.map(|i| self.mesh.uvs[i]);
+            return match uv_derivatives(p, uv) {
+                Some((dpdu, dpdv)) => bump(
+                    surface.ns,
+                    dpdu,
+                    dpdv,
+                    self.texture(id),
+                    maps.bump_scale,
+                    surface.uv,
+                ),
+                None => surface.ns,
+            };
+        }
+        match (maps.normal, self.tangents.is_empty()) {
+            (Some(id), false) => {
+                let [a, b, c] = corners.map(|i| self.tangents[i]);
+                let tangent = (1.0 - hit.u - hit.v) * a + hit.u * b + hit.v * c;
+                let n = normal_map(surface.ns, tangent, self.texture(id), surface.uv);
+                // Keep it on the geometric side; the BSDF bends it further if needed.
+                if n.dot(surface.ng) < 0.0 {
+                    (n - 1.001 * n.dot(surface.ng) * surface.ng).normalize_or(surface.ns)
+                } else {
+                    n
+                }
+            }
+            _ => surface.ns,
+        }
+    }
+
     /// The diffuse reflectance at a surface point (texture lookup where there is one),
     /// clamped to [0, 1] like `Kd`.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
         match material.diffuse_texture {
-            Some(t) => self.textures[t as usize]
+            Some(t) => self
+                .texture(t)
                 .sample(surface.uv)
                 .clamp(Vec3::ZERO, Vec3::ONE),
             None => material.diffuse,
         }
     }
 
-    /// The BSDF of the surface at a hit point.
+    /// What the material is at a surface point, its maps read.
     #[inline]
-    pub fn bsdf(&self, surface: &SurfacePoint) -> Bsdf {
+    pub fn params(&self, surface: &SurfacePoint) -> SurfaceParams {
         let material = self.material(surface);
+        let maps = &material.maps;
+        let scalar = |map: Option<u32>| map.map(|t| self.texture(t).sample_scalar(surface.uv));
         let albedo = if material.uses_albedo() {
             self.albedo(surface)
         } else {
             Vec3::ZERO
         };
-        material.bsdf(albedo, surface.ns, surface.ng)
+        let specular = match maps.specular {
+            Some(t) => self
+                .texture(t)
+                .sample(surface.uv)
+                .clamp(Vec3::ZERO, Vec3::ONE),
+            None => material.specular,
+        };
+        let metallic = match maps.metallic {
+            Some(t) => material.metallic * self.texture(t).sample_scalar(surface.uv),
+            None => material.metallic,
+        };
+        SurfaceParams {
+            albedo,
+            specular,
+            alpha: material.alpha_at(scalar(maps.roughness), scalar(maps.shininess)),
+            metallic: metallic.clamp(0.0, 1.0),
+        }
+    }
+
+    /// The BSDF of the surface at a hit point, seen from direction `wo`.
+    #[inline]
+    pub fn bsdf(&self, surface: &SurfacePoint, wo: Vec3) -> Bsdf {
+        let material = self.material(surface);
+        let ns = if material.maps.perturbs_normal() {
+            keep_reflection_above(surface.ns, surface.ng, wo)
+        } else {
+            surface.ns
+        };
+        material.bsdf(&self.params(surface), ns, surface.ng)
+    }
+
+    /// Radiance emitted at a surface point (on its emitting side): `Ke`, times `map_Ke`
+    /// where there is one.
+    #[inline]
+    pub fn emitted(&self, surface: &SurfacePoint) -> Vec3 {
+        let material = self.material(surface);
+        match material.maps.emission {
+            Some(t) => material.emission * self.texture(t).sample(surface.uv).max(Vec3::ZERO),
+            None => material.emission,
+        }
     }
 
     /// The hit filter of the scene's cut-outs, or `None` when every material is opaque.

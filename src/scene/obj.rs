@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use glam::{Vec2, Vec3};
 
 use super::textures::TextureLoader;
-use super::{Material, MtlValues, Scene, SceneError, TriangleMesh};
+use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, TriangleMesh};
 
 /// Facts about a load worth telling the user.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -286,22 +286,28 @@ fn load_obj_text(
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
     let names_materials = mentions_usemtl(&text);
-    let parsed = parse(path, &text, sources)?;
+    let Parsed {
+        models,
+        materials: tobj_materials,
+        mtl_dirs,
+    } = parse(path, &text, sources)?;
     drop(text);
     let mut report = LoadReport::default();
+    // Faces without a (known) material use a matte grey at the end of the list.
+    let default_material = tobj_materials.len() as u32;
+    let mesh = build_mesh(path, &models, default_material, &mut report)?;
+    // The mesh holds the geometry now: free tobj's copy before textures are decoded.
+    drop(models);
     // In memory there is no directory to search: every texture is "not found".
     let mut search_dirs = Vec::new();
     if let Sources::Disk { dir } = sources {
         search_dirs.push(dir.clone());
-        search_dirs.extend(parsed.mtl_dirs);
+        search_dirs.extend(mtl_dirs);
     }
     let mut loader = TextureLoader::new(search_dirs);
-    let mut materials = build_materials(path, &parsed.materials, &mut loader, &mut report)?;
-    // Faces without a (known) material use a matte grey at the end of the list.
-    let default_material = materials.len() as u32;
+    let mut materials = build_materials(path, &tobj_materials, &mut loader, &mut report)?;
     materials.push(Material::default());
-    let mesh = build_mesh(path, &parsed.models, default_material, &mut report)?;
-    if names_materials && parsed.materials.is_empty() {
+    if names_materials && tobj_materials.is_empty() {
         report.warnings.push(
             "faces name materials but no material library was loaded; they render grey".into(),
         );
@@ -315,7 +321,7 @@ fn load_obj_text(
     scene.alpha_maps = alpha_maps;
     report.triangles = scene.mesh.triangles.len();
     report.vertices = scene.mesh.positions.len();
-    report.materials = parsed.materials.len();
+    report.materials = tobj_materials.len();
     report.emitters = scene.emitters.len();
     Ok((scene, report))
 }
@@ -418,6 +424,9 @@ fn build_materials(
             ns: m.shininess,
             ni: m.optical_density,
             illum: m.illumination_model,
+            pr: unit_parameter(m, "Pr")?,
+            pm: unit_parameter(m, "Pm")?,
+            maps: material_maps(m, loader)?,
         };
         let finite = [values.kd, values.ks, values.ke]
             .into_iter()
@@ -448,6 +457,62 @@ fn build_materials(
         report.warnings.push(zero_opacity_warning(&zero_opacity));
     }
     Ok(materials)
+}
+
+/// The texture maps of a material other than `map_Kd` and `map_d`, decoded.
+fn material_maps(
+    m: &tobj::Material,
+    loader: &mut TextureLoader,
+) -> Result<MaterialMaps, SceneError> {
+    use TextureKind::{Colour, Scalar, Vector};
+    let extra = |key: &str| m.unknown_param.get(key).map(String::as_str);
+    // tobj reads `bump` and `map_Bump` into `normal_texture`; they are height maps.
+    let slots: [(Option<&str>, &'static str, TextureKind); 7] = [
+        (m.specular_texture.as_deref(), "map_Ks", Colour),
+        (m.shininess_texture.as_deref(), "map_Ns", Scalar),
+        (extra("map_Ke"), "map_Ke", Colour),
+        (extra("map_Pr"), "map_Pr", Scalar),
+        (extra("map_Pm"), "map_Pm", Scalar),
+        (m.normal_texture.as_deref(), "bump", Scalar),
+        (extra("norm"), "norm", Vector),
+    ];
+    let mut ids = [None; 7];
+    let mut bump_scale = 1.0;
+    for (k, (statement, slot, kind)) in slots.into_iter().enumerate() {
+        if let Some(statement) = statement {
+            let (id, scale) = loader.texture(statement, slot, &m.name, kind)?;
+            ids[k] = Some(id);
+            if slot == "bump" {
+                bump_scale = scale;
+            }
+        }
+    }
+    let [specular, shininess, emission, roughness, metallic, bump, normal] = ids;
+    Ok(MaterialMaps {
+        specular,
+        shininess,
+        emission,
+        roughness,
+        metallic,
+        bump,
+        bump_scale,
+        normal,
+    })
+}
+
+/// A PBR extension scalar (`Pr`, `Pm`): a number in [0, 1], or an error naming it.
+fn unit_parameter(m: &tobj::Material, key: &str) -> Result<Option<f32>, SceneError> {
+    let Some(text) = m.unknown_param.get(key) else {
+        return Ok(None);
+    };
+    let word = text.split_whitespace().next().unwrap_or("");
+    match word.parse::<f32>() {
+        Ok(x) if (0.0..=1.0).contains(&x) => Ok(Some(x)),
+        _ => Err(SceneError::Material {
+            material: m.name.clone(),
+            reason: format!("{key} {text:?} is not a number in [0, 1]"),
+        }),
+    }
 }
 
 /// One indexed mesh from every model: positions, normals and UVs checked to be

@@ -1,6 +1,12 @@
-//! Finding and decoding the image files an MTL names, each once: colour textures
-//! (`map_Kd`, decoded from sRGB to linear RGB) and opacity maps (`map_d`, and the alpha
+//! Finding and decoding the image files an MTL names, each once: colour maps
+//! (`map_Kd`, `map_Ks`, `map_Ke`, decoded as sRGB), data maps (`bump`, `norm`,
+//! `map_Pr`, `map_Pm`, `map_Ns`, linear) and opacity maps (`map_d`, and the alpha
 //! channel of `map_Kd`, kept as linear 8-bit planes).
+//!
+//! A statement's value is `[-option args]... file name`: the options of the MTL
+//! specification are skipped with their arguments (`-bm` is kept, for bump maps), the
+//! rest of the line is the file name (spaces included), and backslashes are read as
+//! path separators.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -8,16 +14,18 @@ use std::sync::Arc;
 
 use image::DynamicImage;
 
-use super::{AlphaMap, SceneError, Texture};
+use super::{AlphaMap, SceneError, Texture, TextureKind};
 
 /// The textures and alpha maps of a scene as its materials name them.
 pub(super) struct TextureLoader {
     /// Where relative names are looked up: beside the OBJ, then beside each MTL.
     /// Empty for scenes in memory, where every texture is "not found".
     dirs: Vec<PathBuf>,
-    pub textures: Vec<Texture>,
+    pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    texture_ids: HashMap<PathBuf, (u32, Option<u32>)>,
+    /// Keyed by file, by how it is decoded and by whether it is a `map_Kd` (whose
+    /// alpha channel is an alpha map, kept beside it).
+    texture_ids: HashMap<(PathBuf, TextureKind, bool), (u32, Option<u32>)>,
     /// Keyed by file and by whether it is a `map_d` (which falls back to luminance).
     alpha_ids: HashMap<(PathBuf, bool), u32>,
 }
@@ -37,34 +45,67 @@ impl TextureLoader {
     /// alpha map when it has a non-opaque one.
     pub fn diffuse(
         &mut self,
-        name: &str,
+        statement: &str,
         material: &str,
     ) -> Result<(u32, Option<u32>), SceneError> {
-        let file = self.find(name, "map_Kd", material)?;
-        if let Some(&ids) = self.texture_ids.get(&file) {
-            return Ok(ids);
+        self.load(statement, "map_Kd", material, TextureKind::Colour)
+            .map(|(loaded, _)| loaded)
+    }
+
+    /// Any other texture map: its index, and the `-bm` multiplier of its statement
+    /// (1 when absent).
+    pub fn texture(
+        &mut self,
+        statement: &str,
+        slot: &'static str,
+        material: &str,
+        kind: TextureKind,
+    ) -> Result<(u32, f32), SceneError> {
+        self.load(statement, slot, material, kind)
+            .map(|((id, _), bump_scale)| (id, bump_scale))
+    }
+
+    /// Decodes the file of a texture statement once per kind (a `map_Kd` also gets its
+    /// alpha channel as an alpha map).
+    fn load(
+        &mut self,
+        statement: &str,
+        slot: &'static str,
+        material: &str,
+        kind: TextureKind,
+    ) -> Result<((u32, Option<u32>), f32), SceneError> {
+        let options = parse_statement(statement)
+            .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
+        let file = self.find(&options.file, slot, material)?;
+        let key = (file, kind, slot == "map_Kd");
+        if let Some(&ids) = self.texture_ids.get(&key) {
+            return Ok((ids, options.bump_scale));
         }
-        let image = decode(&file, 24).map_err(|reason| error(&file, "map_Kd", material, reason))?;
-        let alpha = AlphaMap::from_alpha_channel(&image).map(|map| {
-            self.alpha_maps.push(Arc::new(map));
-            let id = self.alpha_maps.len() as u32 - 1;
-            self.alpha_ids.insert((file.clone(), false), id);
-            id
-        });
-        let linear = crate::image::Image::from_image(image);
-        self.textures.push(Texture {
-            width: linear.width,
-            height: linear.height,
-            texels: linear.pixels,
-        });
+        let bytes_per_texel = if kind == TextureKind::Scalar { 4 } else { 12 };
+        let image = decode(&key.0, bytes_per_texel)
+            .map_err(|reason| error(&key.0, slot, material, reason))?;
+        let alpha = key
+            .2
+            .then(|| AlphaMap::from_alpha_channel(&image))
+            .flatten()
+            .map(|map| {
+                self.alpha_maps.push(Arc::new(map));
+                let id = self.alpha_maps.len() as u32 - 1;
+                self.alpha_ids.insert((key.0.clone(), false), id);
+                id
+            });
+        self.textures
+            .push(Arc::new(Texture::from_image(image, kind)));
         let ids = (self.textures.len() as u32 - 1, alpha);
-        self.texture_ids.insert(file, ids);
-        Ok(ids)
+        self.texture_ids.insert(key, ids);
+        Ok((ids, options.bump_scale))
     }
 
     /// A `map_d`: the index of its alpha map (alpha channel, else luminance).
-    pub fn opacity(&mut self, name: &str, material: &str) -> Result<u32, SceneError> {
-        let file = self.find(name, "map_d", material)?;
+    pub fn opacity(&mut self, statement: &str, material: &str) -> Result<u32, SceneError> {
+        let options = parse_statement(statement)
+            .map_err(|reason| error(Path::new(statement.trim()), "map_d", material, reason))?;
+        let file = self.find(&options.file, "map_d", material)?;
         let key = (file, true);
         if let Some(&id) = self.alpha_ids.get(&key) {
             return Ok(id);
@@ -94,16 +135,88 @@ fn error(path: &Path, slot: &'static str, material: &str, reason: String) -> Sce
     }
 }
 
-/// Finds a texture file next to the OBJ or one of its MTL files. Options before the
-/// file name (`-s 1 1 1 wood.png`) are skipped by trying the last word too.
+/// Finds a texture file next to the OBJ or one of its MTL files.
 fn find_texture(name: &str, dirs: &[PathBuf]) -> Option<PathBuf> {
-    let name = name.trim();
-    let last_word = name.split_whitespace().last().unwrap_or(name);
-    let normalized = |n: &str| n.replace('\\', "/");
-    [name, last_word]
-        .iter()
-        .flat_map(|n| dirs.iter().map(move |d| d.join(normalized(n))))
-        .find(|p| p.is_file())
+    let name = name.replace('\\', "/");
+    dirs.iter().map(|d| d.join(&name)).find(|p| p.is_file())
+}
+
+/// What a texture statement says besides which file.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct TextureOptions {
+    pub file: String,
+    /// `-bm`: the bump multiplier.
+    pub bump_scale: f32,
+}
+
+/// The options of the MTL specification and how many arguments each takes (`-o`,
+/// `-s` and `-t` take one to three numbers).
+const OPTION_ARGUMENTS: [(&str, usize); 13] = [
+    ("-blendu", 1),
+    ("-blendv", 1),
+    ("-bm", 1),
+    ("-boost", 1),
+    ("-cc", 1),
+    ("-clamp", 1),
+    ("-imfchan", 1),
+    ("-mm", 2),
+    ("-texres", 1),
+    ("-type", 1),
+    ("-o", 3),
+    ("-s", 3),
+    ("-t", 3),
+];
+
+/// Splits `[-option args]... file name` (see the module documentation). An unknown
+/// option, a missing argument or no file name is an error.
+pub(super) fn parse_statement(statement: &str) -> Result<TextureOptions, String> {
+    let mut rest = statement.trim();
+    let mut bump_scale = 1.0;
+    while rest.starts_with('-') {
+        let (option, after) = split_word(rest);
+        let count = OPTION_ARGUMENTS
+            .iter()
+            .find(|(name, _)| *name == option)
+            .map(|&(_, n)| n)
+            .ok_or_else(|| format!("unknown texture option {option:?}"))?;
+        // `-o`, `-s` and `-t` take up to three numbers; the others exactly `count` words.
+        let variadic = matches!(option, "-o" | "-s" | "-t");
+        rest = after;
+        for k in 0..count {
+            let (word, after) = split_word(rest);
+            let is_number = word.parse::<f32>().is_ok();
+            if variadic && k > 0 && !is_number {
+                break;
+            }
+            if word.is_empty() || (variadic && !is_number) {
+                return Err(format!("texture option {option} is missing its arguments"));
+            }
+            if option == "-bm" {
+                bump_scale = word
+                    .parse::<f32>()
+                    .ok()
+                    .filter(|b| b.is_finite())
+                    .ok_or_else(|| format!("-bm {word:?} is not a number"))?;
+            }
+            rest = after;
+        }
+    }
+    if rest.is_empty() {
+        return Err("no file name after the options".into());
+    }
+    Ok(TextureOptions {
+        file: rest.to_owned(),
+        bump_scale,
+    })
+}
+
+/// The first whitespace-separated word of `text` and what follows it, trimmed.
+fn split_word(text: &str) -> (&str, &str) {
+    let text = text.trim_start();
+    match text.find(char::is_whitespace) {
+        Some(end) => (&text[..end], text[end..].trim_start()),
+        None => (text, ""),
+    }
 }
 
 /// Decodes an image file, refusing one whose copies (`bytes_per_texel` of them beside
@@ -126,4 +239,26 @@ fn decode(path: &Path, bytes_per_texel: u64) -> Result<DynamicImage, String> {
         return Err("image is empty".into());
     }
     Ok(image)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn options_are_skipped_with_their_arguments() {
+        let parsed =
+            parse_statement("-bm 0.5 -s 1 2 -o 0.1 0.2 0.3 -clamp on my wood.png").unwrap();
+        assert_eq!(parsed.file, "my wood.png");
+        assert_eq!(parsed.bump_scale, 0.5);
+        assert_eq!(parse_statement("  a b\\c.jpg ").unwrap().file, "a b\\c.jpg");
+        assert_eq!(parse_statement("-s 2 x.png").unwrap().file, "x.png");
+        assert_eq!(parse_statement("-mm 0 1 x.png").unwrap().file, "x.png");
+        assert!(parse_statement("-wat 1 x.png")
+            .unwrap_err()
+            .contains("-wat"));
+        assert!(parse_statement("-bm").is_err());
+        assert!(parse_statement("-bm x y.png").is_err());
+        assert!(parse_statement("-clamp on").is_err());
+    }
 }
