@@ -176,7 +176,22 @@ impl Bvh {
                         cur = node.child[mask.trailing_zeros() as usize];
                         continue;
                     }
-                    // Several: farthest first onto the stack, nearest visited next.
+                    let rest = mask & (mask - 1);
+                    if rest & (rest - 1) == 0 {
+                        // Two, the common case above the leaves: a compare and two
+                        // selects instead of a sort, whose branches mispredict.
+                        let (a, b) = (
+                            mask.trailing_zeros() as usize,
+                            rest.trailing_zeros() as usize,
+                        );
+                        let b_first = near[b] < near[a];
+                        let (first, second) = if b_first { (b, a) } else { (a, b) };
+                        stack[sp] = (node.child[second], near[second]);
+                        sp += 1;
+                        cur = node.child[first];
+                        continue;
+                    }
+                    // More: farthest first onto the stack, nearest visited next.
                     let (kids, n) = sorted_far_to_near(node, &near, mask);
                     // A fixed-size copy (the stack has room): no call to memcpy.
                     stack[sp..sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
