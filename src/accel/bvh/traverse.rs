@@ -133,6 +133,43 @@ fn sorted_far_to_near(
     (kids, n)
 }
 
+/// The child of `node` to visit next among those in `mask` (not empty), the nearest;
+/// the others go onto `stack` above `sp`, farthest deepest.
+#[inline(always)]
+fn descend(
+    node: &Node,
+    near: &[f32; WIDTH],
+    mask: u32,
+    stack: &mut [(Child, f32); STACK],
+    sp: &mut usize,
+) -> Child {
+    let first = mask.trailing_zeros() as usize;
+    let rest = mask & (mask - 1);
+    if rest == 0 {
+        // One child hit, the common case deep in the tree.
+        return node.child[first];
+    }
+    if rest & (rest - 1) == 0 {
+        // Two, the common case above the leaves: a compare and two selects instead of
+        // a sort, whose branches mispredict.
+        let second = rest.trailing_zeros() as usize;
+        let (a, b) = if near[second] < near[first] {
+            (second, first)
+        } else {
+            (first, second)
+        };
+        stack[*sp] = (node.child[b], near[b]);
+        *sp += 1;
+        return node.child[a];
+    }
+    // More: farthest first onto the stack, nearest visited next.
+    let (kids, n) = sorted_far_to_near(node, near, mask);
+    // A fixed-size copy (the stack has room): no call to memcpy.
+    stack[*sp..*sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
+    *sp += n - 1;
+    kids[n - 1].0
+}
+
 impl Bvh {
     /// The nearest intersection that `filter` accepts. Monomorphised per filter, so
     /// [`crate::geometry::Opaque`] (a compile-time `true`) costs nothing.
@@ -171,32 +208,7 @@ impl Bvh {
                 let node = &self.nodes[cur.index()];
                 let (near, mask) = boxes.test(node, tmin, tmax);
                 if mask != 0 {
-                    if mask & (mask - 1) == 0 {
-                        // One child hit, the common case deep in the tree.
-                        cur = node.child[mask.trailing_zeros() as usize];
-                        continue;
-                    }
-                    let rest = mask & (mask - 1);
-                    if rest & (rest - 1) == 0 {
-                        // Two, the common case above the leaves: a compare and two
-                        // selects instead of a sort, whose branches mispredict.
-                        let (a, b) = (
-                            mask.trailing_zeros() as usize,
-                            rest.trailing_zeros() as usize,
-                        );
-                        let b_first = near[b] < near[a];
-                        let (first, second) = if b_first { (b, a) } else { (a, b) };
-                        stack[sp] = (node.child[second], near[second]);
-                        sp += 1;
-                        cur = node.child[first];
-                        continue;
-                    }
-                    // More: farthest first onto the stack, nearest visited next.
-                    let (kids, n) = sorted_far_to_near(node, &near, mask);
-                    // A fixed-size copy (the stack has room): no call to memcpy.
-                    stack[sp..sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
-                    sp += n - 1;
-                    cur = kids[n - 1].0;
+                    cur = descend(node, &near, mask, stack, &mut sp);
                     continue;
                 }
             }
@@ -263,7 +275,9 @@ impl Bvh {
                 let (near, mask) = boxes.test(node, tmin, tmax);
                 if mask != 0 {
                     // Any hit will do, but the nearest child is the likeliest blocker:
-                    // visit it next, push the others.
+                    // visit it next, push the others. (Pushing them in order too, as
+                    // for the nearest hit, was 5% slower on Sponza; visiting the first
+                    // child instead of the nearest, 40% slower.)
                     let mut nearest = mask.trailing_zeros() as usize;
                     let mut rest = mask & (mask - 1);
                     while rest != 0 {
