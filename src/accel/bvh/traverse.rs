@@ -182,7 +182,8 @@ impl Bvh {
     ) -> Option<Hit> {
         let stack = &mut stacks.near;
         let boxes = RayBoxes::new(ray);
-        let shear = RayShear::new(ray.origin, ray.dir);
+        // Made at the first leaf: many rays leave the tree without reaching one.
+        let mut shear = None;
         let (tmin, mut tmax) = (ray.tmin, ray.tmax);
         // The block and lane of the nearest hit so far, and its barycentrics.
         let mut best: Option<(usize, usize, f32, f32)> = None;
@@ -190,6 +191,7 @@ impl Bvh {
         let mut cur = Child::inner(0);
         loop {
             if cur.is_leaf() {
+                let shear = &*shear.get_or_insert_with(|| RayShear::new(ray.origin, ray.dir));
                 for index in cur.range() {
                     let block = &self.blocks[index];
                     let found = if F::ACCEPTS_ALL {
@@ -252,12 +254,14 @@ impl Bvh {
     ) -> bool {
         let stack = &mut stacks.any;
         let boxes = RayBoxes::new(ray);
-        let shear = RayShear::new(ray.origin, ray.dir);
+        // Made at the first leaf: many rays leave the tree without reaching one.
+        let mut shear = None;
         let (tmin, tmax) = (ray.tmin, ray.tmax);
         let mut sp = 0;
         let mut cur = Child::inner(0);
         loop {
             if cur.is_leaf() {
+                let shear = &*shear.get_or_insert_with(|| RayShear::new(ray.origin, ray.dir));
                 for block in &self.blocks[cur.range()] {
                     let blocked = if F::ACCEPTS_ALL {
                         shear.occluded4(block, tmin, tmax)

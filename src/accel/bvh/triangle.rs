@@ -21,25 +21,18 @@ pub struct RayShear {
 impl RayShear {
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
-        // The dimension where the direction is largest becomes z.
+        // The dimension where the direction is largest becomes z; chosen with selects
+        // rather than branches, which random directions would mispredict.
         let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
+            2 - 2 * usize::from(a.x > a.z)
         } else {
-            2
+            2 - usize::from(a.y > a.z)
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
         let d = dir.to_array();
         // Keep the winding: swapping x and y when z flips preserves the edge signs.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let flip = usize::from(d[kz] < 0.0);
+        let kx = (kz + 1 + flip) % 3;
+        let ky = (kz + 2 - flip) % 3;
         RayShear {
             origin: origin.to_array(),
             kx,
