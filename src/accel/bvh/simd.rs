@@ -88,3 +88,51 @@ fn intersect_avx2<F: HitFilter>(
 fn occluded_avx2<F: HitFilter>(bvh: &Bvh, ray: &Ray, filter: &F, stacks: &mut Stacks) -> bool {
     bvh.occluded_in(ray, filter, stacks)
 }
+
+#[cfg(test)]
+mod tests {
+    use glam::Vec3;
+
+    use super::*;
+    use crate::accel::Accel;
+    use crate::sampling::Rng;
+
+    #[test]
+    fn avx2_and_portable_traversal_agree_bit_for_bit() {
+        if Isa::detect() == Isa::Portable {
+            eprintln!("no AVX2 here: only the portable traversal runs");
+            return;
+        }
+        // Small triangles in a cube, some twice with opposite windings, and rays from
+        // inside and outside: hits, misses, and ties between triangles.
+        let mut rng = Rng::seeded(12);
+        let mut p = || Vec3::new(rng.f32(), rng.f32(), rng.f32());
+        let mut vertices = Vec::new();
+        let mut triangles = Vec::new();
+        for i in 0..20_000u32 {
+            let c = p() * 10.0;
+            vertices.extend([c, c + p() * 0.3, c + p() * 0.3]);
+            triangles.push([3 * i, 3 * i + 1, 3 * i + 2]);
+            if i % 7 == 0 {
+                triangles.push([3 * i, 3 * i + 2, 3 * i + 1]);
+            }
+        }
+        let avx2 = Bvh::build(&vertices, &triangles).unwrap();
+        let mut portable = Bvh::build(&vertices, &triangles).unwrap();
+        portable.isa = Isa::Portable;
+        let bits =
+            |h: Option<Hit>| h.map(|h| (h.t.to_bits(), h.prim, h.u.to_bits(), h.v.to_bits()));
+        let mut hits = 0;
+        for _ in 0..50_000 {
+            let origin = p() * 14.0 - Vec3::splat(2.0);
+            let dir = p() * 2.0 - Vec3::ONE;
+            // Some segments stop short of every triangle.
+            let ray = Ray::segment(origin, dir, 8.0 / dir.length().max(1e-3));
+            let a = avx2.intersect(&ray);
+            hits += usize::from(a.is_some());
+            assert_eq!(bits(a), bits(portable.intersect(&ray)), "{ray:?}");
+            assert_eq!(avx2.occluded(&ray), portable.occluded(&ray), "{ray:?}");
+        }
+        assert!(hits > 10_000, "too few hits to compare: {hits}");
+    }
+}
