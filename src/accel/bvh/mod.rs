@@ -1,8 +1,13 @@
 //! ember's native BVH: a 4-wide tree built with the binned SAH ([`build`]), traversed
-//! front to back with four slab tests per node in one auto-vectorised loop, and
-//! watertight ray/triangle tests ([`triangle`]) in the leaves. With a [`HitFilter`]
-//! ([`Bvh::with_filter`]) the leaves ask it about every intersection and traversal goes
-//! on past the ones it rejects (cut-outs), as Embree does with its filter functions.
+//! front to back with four slab tests per node in one auto-vectorised loop
+//! ([`traverse`]), and watertight ray/triangle tests ([`triangle`]) in the leaves.
+//! Traversal runs as AVX2 code where the processor has it, chosen at run time
+//! ([`simd`]). With a [`HitFilter`] ([`Bvh::with_filter`]) the leaves ask it about
+//! every intersection and traversal goes on past the ones it rejects (cut-outs), as
+//! Embree does with its filter functions.
+//!
+//! Nodes are 4 wide although [`node::WIDTH`] = 8 builds and passes the tests: with
+//! AVX2, 8-wide nodes measured 3-20% slower on the bunny, Sponza and the staircase.
 
 mod aabb;
 mod build;
