@@ -67,7 +67,8 @@ struct RayBoxes {
 impl RayBoxes {
     #[inline(always)]
     fn new(ray: &Ray) -> Self {
-        let inv = ray.dir.recip().to_array();
+        // One packed division (each lane rounds as a scalar division would).
+        let inv = glam::Vec3A::from(ray.dir).recip().to_array();
         RayBoxes {
             org: ray.origin.to_array(),
             inv,

@@ -4,7 +4,7 @@
 //! passes exactly through a shared edge or vertex hits at least one of the triangles
 //! that share it (no cracks), which the Möller–Trumbore test cannot promise.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// The per-ray constants of the test: the axis permutation and the shear.
 #[derive(Clone, Copy, Debug)]
@@ -33,14 +33,16 @@ impl RayShear {
         let flip = usize::from(d[kz] < 0.0);
         let kx = (kz + 1 + flip) % 3;
         let ky = (kz + 2 - flip) % 3;
+        // One packed division for the three quotients (each rounds as it would alone).
+        let [sx, sy, sz] = (Vec3A::new(d[kx], d[ky], 1.0) / d[kz]).to_array();
         RayShear {
             origin: origin.to_array(),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx,
+            sy,
+            sz,
         }
     }
 
