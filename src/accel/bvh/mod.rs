@@ -1,7 +1,7 @@
 //! ember's native BVH: a 4-wide tree built with the binned SAH ([`build`]), traversed
 //! front to back with four slab tests per node in one auto-vectorised loop
 //! ([`traverse`]), and watertight ray/triangle tests ([`triangle`]) in the leaves.
-//! Traversal runs as AVX2 code where the processor has it, chosen at run time
+//! Any-hit traversal runs as AVX2 code where the processor has it, chosen at run time
 //! ([`simd`]). With a [`HitFilter`] ([`Bvh::with_filter`]) the leaves ask it about
 //! every intersection and traversal goes on past the ones it rejects (cut-outs), as
 //! Embree does with its filter functions.
@@ -180,7 +180,8 @@ impl Accel for Bvh {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        with_stacks(|stacks| simd::intersect(self.isa, self, ray, &Opaque, stacks))
+        // The portable build: see `simd` for why closest hits do not use AVX2.
+        with_stacks(|stacks| self.intersect_in(ray, &Opaque, stacks))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
@@ -199,8 +200,7 @@ impl<F: HitFilter> Accel for FilteredBvh<F> {
     }
 
     fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        let (bvh, filter) = (&self.bvh, &*self.filter);
-        with_stacks(|stacks| simd::intersect(bvh.isa, bvh, ray, filter, stacks))
+        with_stacks(|stacks| self.bvh.intersect_in(ray, &*self.filter, stacks))
     }
 
     fn occluded(&self, ray: &Ray) -> bool {
