@@ -1,6 +1,6 @@
 //! The binned surface-area-heuristic (SAH) builder: a binary tree split by the best of
 //! 32 bins on each axis (parallel over rayon's workers), or where that split's sides
-//! overlap much, a spatial split ([`spatial`]); then collapsed into 4-wide nodes by
+//! overlap much, a spatial split ([`spatial`]); then collapsed into wide nodes by
 //! repeatedly opening the child with the largest surface area.
 //!
 //! The tree is a function of the mesh alone, not of the thread count: parallel binning
@@ -13,7 +13,7 @@ use glam::{BVec3A, UVec3, Vec3A};
 use rayon::prelude::*;
 
 use super::aabb::{Aabb, PrimRef};
-use super::node::{Child, Node4, MAX_BLOCKS, MAX_LEAF};
+use super::node::{Child, Node, MAX_BLOCKS, MAX_LEAF, WIDTH};
 use super::sah::{blocks, ObjectSplit, TRAVERSAL_COST};
 use super::spatial::{self, Spatial};
 
@@ -401,11 +401,11 @@ fn inner(
     }
 }
 
-/// Emits `node` (and its subtree) as 4-wide nodes, depth first; returns its reference.
+/// Emits `node` (and its subtree) as wide nodes, depth first; returns its reference.
 /// `leaf(ids)` stores a leaf's triangles and returns the leaf's `Child`.
 fn flatten(
     node: &BuildNode,
-    nodes: &mut Vec<Node4>,
+    nodes: &mut Vec<Node>,
     leaf: &mut impl FnMut(&[u32]) -> Child,
 ) -> Child {
     let BuildNode::Inner { children, .. } = node else {
@@ -414,10 +414,11 @@ fn flatten(
         };
         return leaf(&ids[..*count]);
     };
-    let mut kids: [&BuildNode; 4] = [&children[0], &children[1], &children[0], &children[0]];
+    let mut kids: [&BuildNode; WIDTH] = [&children[0]; WIDTH];
+    kids[1] = &children[1];
     let mut len = 2;
     // Pull grandchildren up while there is room: open the widest inner child first.
-    while len < 4 {
+    while len < WIDTH {
         let widest = (0..len)
             .filter(|&i| matches!(kids[i], BuildNode::Inner { .. }))
             .max_by(|&i, &j| {
@@ -435,8 +436,8 @@ fn flatten(
         len += 1;
     }
     let index = nodes.len();
-    nodes.push(Node4::EMPTY);
-    let mut out = Node4::EMPTY;
+    nodes.push(Node::EMPTY);
+    let mut out = Node::EMPTY;
     for (lane, kid) in kids[..len].iter().enumerate() {
         let b = kid.bounds();
         let child = flatten(kid, nodes, leaf);
@@ -446,7 +447,7 @@ fn flatten(
     Child::inner(index as u32)
 }
 
-/// Builds the 4-wide tree over `refs` (reordering them); `corners(id)` gives a
+/// Builds the wide tree over `refs` (reordering them); `corners(id)` gives a
 /// triangle's corners, for spatial splits; `leaf(ids)` stores each leaf's triangles (in
 /// depth-first order) and returns its `Child`. Node 0 is the root. `refs` must not be
 /// empty.
@@ -454,7 +455,7 @@ pub fn build(
     refs: &mut [PrimRef],
     corners: &(dyn Fn(u32) -> [Vec3A; 3] + Sync),
     mut leaf: impl FnMut(&[u32]) -> Child,
-) -> Vec<Node4> {
+) -> Vec<Node> {
     debug_assert!(!refs.is_empty());
     let bounds = bounds_of(refs);
     let spatial = Spatial {
@@ -469,7 +470,7 @@ pub fn build(
     match &tree {
         BuildNode::Leaf { bounds, .. } => {
             // A root that is a leaf still gets a node, so traversal always starts at one.
-            let mut root = Node4::EMPTY;
+            let mut root = Node::EMPTY;
             root.set(
                 0,
                 bounds.lo.to_array(),
@@ -523,7 +524,7 @@ mod tests {
         let mut stack = vec![0usize];
         while let Some(i) = stack.pop() {
             let node = &nodes[i];
-            for lane in 0..4 {
+            for lane in 0..WIDTH {
                 if node.lo[0][lane] > node.hi[0][lane] {
                     continue;
                 }

@@ -55,14 +55,14 @@ impl Child {
 /// Unused lanes have an empty box (`lo = +inf`, `hi = -inf`) that no ray can hit.
 #[derive(Clone, Copy, Debug)]
 #[repr(C, align(16))]
-pub struct Node4 {
+pub struct Node {
     pub lo: [[f32; WIDTH]; 3],
     pub hi: [[f32; WIDTH]; 3],
     pub child: [Child; WIDTH],
 }
 
-impl Node4 {
-    pub const EMPTY: Node4 = Node4 {
+impl Node {
+    pub const EMPTY: Node = Node {
         lo: [[f32::INFINITY; WIDTH]; 3],
         hi: [[f32::NEG_INFINITY; WIDTH]; 3],
         child: [Child(0); WIDTH],

@@ -4,7 +4,7 @@
 //! passes exactly through a shared edge or vertex hits at least one of the triangles
 //! that share it (no cracks), which the Möller–Trumbore test cannot promise.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// The per-ray constants of the test: the axis permutation and the shear.
 #[derive(Clone, Copy, Debug)]
@@ -21,33 +21,28 @@ pub struct RayShear {
 impl RayShear {
     pub fn new(origin: Vec3, dir: Vec3) -> Self {
         let a = dir.abs();
-        // The dimension where the direction is largest becomes z.
+        // The dimension where the direction is largest becomes z; chosen with selects
+        // rather than branches, which random directions would mispredict.
         let kz = if a.x > a.y {
-            if a.x > a.z {
-                0
-            } else {
-                2
-            }
-        } else if a.y > a.z {
-            1
+            2 - 2 * usize::from(a.x > a.z)
         } else {
-            2
+            2 - usize::from(a.y > a.z)
         };
-        let mut kx = (kz + 1) % 3;
-        let mut ky = (kx + 1) % 3;
         let d = dir.to_array();
         // Keep the winding: swapping x and y when z flips preserves the edge signs.
-        if d[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        let flip = usize::from(d[kz] < 0.0);
+        let kx = (kz + 1 + flip) % 3;
+        let ky = (kz + 2 - flip) % 3;
+        // One packed division for the three quotients (each rounds as it would alone).
+        let [sx, sy, sz] = (Vec3A::new(d[kx], d[ky], 1.0) / d[kz]).to_array();
         RayShear {
             origin: origin.to_array(),
             kx,
             ky,
             kz,
-            sx: d[kx] / d[kz],
-            sy: d[ky] / d[kz],
-            sz: 1.0 / d[kz],
+            sx,
+            sy,
+            sz,
         }
     }
 
