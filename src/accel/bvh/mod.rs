@@ -16,8 +16,6 @@ mod clip;
 mod node;
 mod presplit;
 mod sah;
-// The BVH's only `unsafe`: calling the AVX2 build of traversal after detecting AVX2.
-#[allow(unsafe_code)]
 mod simd;
 mod spatial;
 mod traverse;

@@ -9,35 +9,46 @@
 //! never contracts `a * b + c` into an FMA, and IEEE arithmetic rounds the same at any
 //! vector width.
 //!
-//! The BVH's only `unsafe`: calling a `#[target_feature]` function, which is sound only
-//! on a processor that has the feature.
+//! `multiversion` compiles the function twice and picks the AVX2 build at run time
+//! when the processor has AVX2 (its feature check is cached by the standard library);
+//! the crate holds the `unsafe` of calling a `#[target_feature]` function, so ember
+//! keeps its own `unsafe` in `src/embree/`.
+
+use multiversion::multiversion;
 
 use super::traverse::Stacks;
 use super::Bvh;
 use crate::accel::Ray;
 use crate::geometry::HitFilter;
 
-/// The instruction set a tree's traversal uses.
+/// The instruction set a tree's any-hit traversal uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Isa {
-    /// x86-64 with AVX2; only ever made by [`Isa::detect`] on a processor that has it.
-    Avx2,
+    /// The best this processor runs: AVX2 where it has it.
+    Best,
     /// The baseline of the target the binary was built for.
     Portable,
 }
 
 impl Isa {
-    /// The best instruction set this processor runs. Setting `EMBER_BVH_PORTABLE` in
-    /// the environment picks the portable code, to compare the two.
+    /// [`Isa::Best`], unless `EMBER_BVH_PORTABLE` is set in the environment, which
+    /// picks the portable code, to compare the two.
     pub fn detect() -> Isa {
         if std::env::var_os("EMBER_BVH_PORTABLE").is_some() {
-            return Isa::Portable;
+            Isa::Portable
+        } else {
+            Isa::Best
         }
+    }
+
+    /// Whether [`Isa::Best`] is more than the portable build here.
+    #[cfg(test)]
+    pub fn has_avx2() -> bool {
         #[cfg(target_arch = "x86_64")]
         if std::arch::is_x86_feature_detected!("avx2") {
-            return Isa::Avx2;
+            return true;
         }
-        Isa::Portable
+        false
     }
 }
 
@@ -51,17 +62,13 @@ pub fn occluded<F: HitFilter>(
     stacks: &mut Stacks,
 ) -> bool {
     match isa {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: `Isa::Avx2` is only made by `Isa::detect` after the processor
-        // reported AVX2.
-        Isa::Avx2 => unsafe { occluded_avx2(bvh, ray, filter, stacks) },
-        _ => bvh.occluded_in(ray, filter, stacks),
+        Isa::Best => occluded_best(bvh, ray, filter, stacks),
+        Isa::Portable => bvh.occluded_in(ray, filter, stacks),
     }
 }
 
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-fn occluded_avx2<F: HitFilter>(bvh: &Bvh, ray: &Ray, filter: &F, stacks: &mut Stacks) -> bool {
+#[multiversion(targets("x86_64+avx2"))]
+fn occluded_best<F: HitFilter>(bvh: &Bvh, ray: &Ray, filter: &F, stacks: &mut Stacks) -> bool {
     bvh.occluded_in(ray, filter, stacks)
 }
 
@@ -75,7 +82,7 @@ mod tests {
 
     #[test]
     fn avx2_and_portable_traversal_agree_bit_for_bit() {
-        if Isa::detect() == Isa::Portable {
+        if !Isa::has_avx2() || Isa::detect() == Isa::Portable {
             eprintln!("no AVX2 here: only the portable traversal runs");
             return;
         }
