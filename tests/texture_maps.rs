@@ -9,10 +9,12 @@
 //!   quad with `∂p/∂u = L x̂` gives the normal `(−k s, 0, L)/|…|`.
 //! - A normal map pointing below the surface lets no light through it.
 
+mod common;
+
 use std::path::Path;
 
-use ember::accel::{EmbreeAccel, Hit, Ray};
-use ember::embree::{BuildQuality, Device};
+use common::{with_embree, Built};
+use ember::accel::{Hit, Ray};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::sampling::Rng;
 use ember::scene::{load_obj, Scene, SceneError};
@@ -58,16 +60,8 @@ const LIGHT: &str = "newmtl light\nKd 0 0 0\nKe 20 20 20\n";
 
 /// The mean radiance arriving at `eye` from the origin, by next-event estimation and
 /// direct light only, over `n` samples.
-fn radiance_at_origin(scene: &Scene, eye: Vec3, kind: IntegratorKind, n: u64) -> Vec3 {
-    let device = Device::new("").unwrap();
-    let accel = EmbreeAccel::build(
-        &device,
-        &scene.mesh.positions,
-        &scene.mesh.triangles,
-        BuildQuality::High,
-    )
-    .unwrap();
-    let tracer = PathTracer::new(scene, &accel, 2, kind);
+fn radiance_at_origin(built: &Built, eye: Vec3, kind: IntegratorKind, n: u64) -> Vec3 {
+    let tracer = PathTracer::new(&built.scene, &built.accel, 2, kind);
     let mut count = RayCount::default();
     let mut sum = glam::DVec3::ZERO;
     for i in 0..n {
@@ -134,6 +128,7 @@ fn assert_tilt_matches(n: Vec3, turn: glam::Quat) {
     // Tangents exist only where a normal map needs them.
     assert_eq!(mapped.tangents.len(), mapped.mesh.positions.len());
     assert!(tilted.tangents.is_empty());
+    let (mapped, tilted) = (with_embree(mapped), with_embree(tilted));
     for kind in [IntegratorKind::Light, IntegratorKind::Mis] {
         let a = radiance_at_origin(&mapped, eye, kind, 20_000);
         let b = radiance_at_origin(&tilted, eye, kind, 20_000);
@@ -226,18 +221,19 @@ fn normals_mapped_below_the_surface_let_no_light_through() {
         "f 5/1 6/2 7/3\nf 5/1 7/3 8/4",
         "f 5/1 7/3 6/2\nf 5/1 8/4 7/3",
     );
-    let scene = load(&obj, &mtl, &[("n.exr", map.clone())]).unwrap();
+    let built = with_embree(load(&obj, &mtl, &[("n.exr", map.clone())]).unwrap());
     for kind in [
         IntegratorKind::Light,
         IntegratorKind::Mis,
         IntegratorKind::Bsdf,
         IntegratorKind::Mixture,
     ] {
-        let l = radiance_at_origin(&scene, Vec3::new(-0.5, 0.2, 2.0), kind, 4_000);
+        let l = radiance_at_origin(&built, Vec3::new(-0.5, 0.2, 2.0), kind, 4_000);
         assert_eq!(l, Vec3::ZERO, "{kind:?}");
     }
     // The BSDF there is zero for every pair of directions on opposite sides, and not
     // black on the lit side: the bent normal still reflects.
+    let scene = &built.scene;
     let s = scene.surface(&Hit {
         t: 1.0,
         prim: 0,
@@ -260,9 +256,9 @@ fn normals_mapped_below_the_surface_let_no_light_through() {
     assert!(lit > 0.0);
     // Lit from above instead, the same surface reflects light.
     let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.5, 0.0, 2.0));
-    let scene = load(&obj, &mtl, &[("n.exr", map)]).unwrap();
+    let lit_from_above = with_embree(load(&obj, &mtl, &[("n.exr", map)]).unwrap());
     let l = radiance_at_origin(
-        &scene,
+        &lit_from_above,
         Vec3::new(-0.5, 0.2, 2.0),
         IntegratorKind::Mis,
         2_000,
@@ -419,13 +415,15 @@ fn textured_emission_is_sampled_consistently() {
     }));
     let surface = "newmtl surface\nKd 0.5 0.5 0.5\n";
     let obj = quad_and_light(square(1.0, glam::Quat::IDENTITY), Vec3::new(0.0, 0.0, 0.5));
-    let plain = load(&obj, &format!("{surface}{LIGHT}"), &[]).unwrap();
-    let textured = load(
-        &obj,
-        &format!("{surface}{LIGHT}map_Ke half.png\n"),
-        &[("half.png", half)],
-    )
-    .unwrap();
+    let plain = with_embree(load(&obj, &format!("{surface}{LIGHT}"), &[]).unwrap());
+    let textured = with_embree(
+        load(
+            &obj,
+            &format!("{surface}{LIGHT}map_Ke half.png\n"),
+            &[("half.png", half)],
+        )
+        .unwrap(),
+    );
     // Seen from beside the light, which would hide the receiver from straight above.
     let eye = Vec3::new(0.0, -1.5, 2.0);
     let reference = radiance_at_origin(&plain, eye, IntegratorKind::Light, 20_000);
