@@ -32,9 +32,9 @@ pub struct LightSampler {
     /// Global triangle index of each emitter, ascending (as in `Scene::emitters`).
     prims: Vec<u32>,
     /// What sampling needs of each emitter, copied out of the mesh so that a sample
-    /// touches one 64-byte record instead of indices, vertices and materials.
+    /// touches one small record instead of indices, vertices and materials.
     emitters: Vec<Emitter>,
-    /// The `map_Ke` textures emitters name (`Emitter::map`).
+    /// The scene's textures, for the `map_Ke` of emitters (`Emitter::map`).
     maps: Vec<Arc<Texture>>,
     table: Option<AliasTable>,
     /// `π Σ A·lum(Ke)` over the emitters: their power, weighed against the sky's.
@@ -122,7 +122,7 @@ struct Emitter {
     /// Probability of choosing this triangle divided by its area: the density per
     /// unit area of a sampled point on it.
     area_density: f32,
-    /// Index into `maps` of the texture that multiplies `emission`, or [`NO_MAP`].
+    /// Scene texture id of the `map_Ke` that multiplies `emission`, or [`NO_MAP`].
     map: u32,
     /// Texture coordinates of the corners (read only with a map).
     uvs: [Vec2; 3],
@@ -157,11 +157,18 @@ impl LightSampler {
         let prims: Vec<u32> = (0..mesh.triangles.len() as u32)
             .filter(|&t| material(t).is_emissive())
             .collect();
-        let mut maps = EmissionMaps::new(textures);
+        // Each emission texture's mean, computed once however many triangles use it.
+        let mut means: Vec<Option<Vec3>> = vec![None; textures.len()];
+        let mut mean_of = |id: Option<u32>| {
+            id.map_or(Vec3::ONE, |id| {
+                *means[id as usize]
+                    .get_or_insert_with(|| textures[id as usize].mean().max(Vec3::ZERO))
+            })
+        };
         let weights: Vec<f32> = prims
             .iter()
             .map(|&t| {
-                let mean = material(t).emission * maps.mean(material(t).maps.emission);
+                let mean = material(t).emission * mean_of(material(t).maps.emission);
                 mesh.area(t) * luminance(mean).max(0.0)
             })
             .collect();
@@ -178,7 +185,7 @@ impl LightSampler {
                     normal: (b - a).cross(c - a).normalize_or_zero(),
                     emission: material(t).emission,
                     area_density: if area > 0.0 { probability / area } else { 0.0 },
-                    map: maps.index(material(t).maps.emission),
+                    map: material(t).maps.emission.unwrap_or(NO_MAP),
                     uvs: corner_uvs(mesh, t),
                 }
             })
@@ -187,7 +194,7 @@ impl LightSampler {
             prims,
             bounds: EmitterBounds::new(&emitters),
             emitters,
-            maps: maps.used,
+            maps: textures.to_vec(),
             table,
             power: PI * weights.iter().sum::<f32>(),
             sky: None,
@@ -379,41 +386,6 @@ fn corner_uvs(mesh: &TriangleMesh, t: u32) -> [Vec2; 3] {
         return [Vec2::ZERO, Vec2::X, Vec2::Y];
     }
     mesh.triangles[t as usize].map(|i| mesh.uvs[i as usize])
-}
-
-/// The emission textures the emitters use, each kept once with its mean.
-struct EmissionMaps<'a> {
-    textures: &'a [Arc<Texture>],
-    /// Scene texture id → (index in `used`, mean value).
-    seen: Vec<Option<(u32, Vec3)>>,
-    used: Vec<Arc<Texture>>,
-}
-
-impl<'a> EmissionMaps<'a> {
-    fn new(textures: &'a [Arc<Texture>]) -> Self {
-        EmissionMaps {
-            textures,
-            seen: vec![None; textures.len()],
-            used: Vec::new(),
-        }
-    }
-
-    fn entry(&mut self, id: u32) -> (u32, Vec3) {
-        *self.seen[id as usize].get_or_insert_with(|| {
-            let texture = &self.textures[id as usize];
-            self.used.push(texture.clone());
-            ((self.used.len() - 1) as u32, texture.mean().max(Vec3::ZERO))
-        })
-    }
-
-    /// The mean of texture `id`, or 1 for no texture.
-    fn mean(&mut self, id: Option<u32>) -> Vec3 {
-        id.map_or(Vec3::ONE, |id| self.entry(id).1)
-    }
-
-    fn index(&mut self, id: Option<u32>) -> u32 {
-        id.map_or(NO_MAP, |id| self.entry(id).0)
-    }
 }
 
 /// The largest `f32` below 1: rescaled uniforms can round up to 1.0.
