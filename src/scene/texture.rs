@@ -60,6 +60,18 @@ struct Footprint {
     weight: [f32; 4],
 }
 
+impl Footprint {
+    /// The weighted sum of the four texels, read by `texel(index)`.
+    #[inline(always)]
+    fn filter(&self, texel: impl Fn(usize) -> Vec3) -> Vec3 {
+        let mut sum = Vec3::ZERO;
+        for k in 0..4 {
+            sum += self.weight[k] * texel(self.index[k]);
+        }
+        sum
+    }
+}
+
 impl Texture {
     /// An RGB texture of linear colour, `width × height` texels (row 0 at the top).
     pub fn from_linear(width: u32, height: u32, texels: Vec<Vec3>) -> Texture {
@@ -140,11 +152,26 @@ impl Texture {
         let Some(f) = self.footprint(uv) else {
             return Vec3::ZERO;
         };
-        let mut sum = Vec3::ZERO;
-        for k in 0..4 {
-            sum += f.weight[k] * self.texel(f.index[k]);
+        // One dispatch on the storage per lookup rather than per texel: the match, the
+        // table's lazy initialisation check and the slice bounds are then hoisted out
+        // of the four fetches.
+        let rgb = |t: &[u8], i: usize| [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
+        match &self.texels {
+            Texels::Srgb8(t) => {
+                let table = &*SRGB8_TO_LINEAR;
+                f.filter(|i| {
+                    let [r, g, b] = rgb(t, i);
+                    Vec3::new(table[r as usize], table[g as usize], table[b as usize])
+                })
+            }
+            Texels::Rgb8(t) => f.filter(|i| {
+                let [r, g, b] = rgb(t, i);
+                Vec3::new(r.into(), g.into(), b.into()) / 255.0
+            }),
+            Texels::Gray8(t) => f.filter(|i| Vec3::splat(f32::from(t[i]) / 255.0)),
+            Texels::RgbF32(t) => f.filter(|i| t[i]),
+            Texels::GrayF32(t) => f.filter(|i| Vec3::splat(t[i])),
         }
-        sum
     }
 
     /// The value of a single-channel texture at `uv` (the first channel of others).
@@ -170,7 +197,16 @@ impl Texture {
         }
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let wrap = |v: f32, n: u32| (v as i64).rem_euclid(i64::from(n)) as usize;
+        // `x0` lies in [-1, width - 1] and `x0 + 1` in [0, width] (likewise y), so
+        // only the texels at the seams need the (slow) integer remainder.
+        let wrap = |v: f32, n: u32| {
+            let i = v as i64;
+            if (0..i64::from(n)).contains(&i) {
+                i as usize
+            } else {
+                i.rem_euclid(i64::from(n)) as usize
+            }
+        };
         let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
         let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
         let row = self.width as usize;
