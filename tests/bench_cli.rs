@@ -39,6 +39,16 @@ fn json_document_has_every_measurement() {
     let written: Value = serde_json::from_slice(&std::fs::read(&out_file).unwrap()).unwrap();
     assert_eq!(doc, written);
 
+    // The OBJ's reading is timed (the procedural mesh is not read from a file).
+    let loading = doc["loading"].as_array().expect("loading array");
+    assert_eq!(loading.len(), 1, "{loading:?}");
+    let obj_bytes = std::fs::metadata(cornell()).unwrap().len();
+    assert_eq!(loading[0]["mesh"], "CornellBox-Original.obj");
+    assert_eq!(loading[0]["file_bytes"].as_u64(), Some(obj_bytes));
+    let seconds = loading[0]["seconds"].as_f64().unwrap();
+    let rate = loading[0]["mb_per_s"].as_f64().unwrap();
+    assert!(seconds > 0.0 && (rate * seconds * 1e6 - obj_bytes as f64).abs() < 1.0);
+
     let results = doc["results"].as_array().expect("results array");
     for r in results {
         let backend = r["backend"].as_str().unwrap();

@@ -2,7 +2,8 @@
 //! published Rust BVH crates) on the same meshes and the same rays. Measures build time,
 //! memory and rays per second for coherent primary rays, incoherent diffuse bounces and
 //! shadow rays, on one thread and on several, through the single-ray and the 8-ray
-//! packet API.
+//! packet API. For OBJ meshes it also times reading the scene (the first part of
+//! `ember render`'s time to first sample).
 //!
 //! The benchmark is part of the binary, not of the renderer library: the library
 //! gives it the backends, and these modules do the rest. They name the library as
@@ -27,6 +28,7 @@ mod report;
 mod timing;
 
 use std::path::{Path, PathBuf};
+use std::time::Instant;
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
@@ -39,6 +41,7 @@ use ember::scene::CameraSettings;
 use measure::BenchOptions;
 use mesh::BenchMesh;
 use procedural::Procedural;
+use report::Loading;
 
 #[derive(Args)]
 pub struct BenchArgs {
@@ -124,9 +127,21 @@ pub fn run(args: BenchArgs) -> Result<()> {
         .chain(args.procedural.iter().map(|&p| Source::Procedural(p)));
 
     let mut results = Vec::new();
+    let mut loadings = Vec::new();
     for source in sources {
         let mesh = match source {
-            Source::Obj(path) => BenchMesh::from_obj(path)?,
+            Source::Obj(path) => {
+                let start = Instant::now();
+                let mesh = BenchMesh::from_obj(path)?;
+                let loading = Loading {
+                    mesh: mesh.name.clone(),
+                    file_bytes: std::fs::metadata(path).map_or(0, |m| m.len()),
+                    seconds: start.elapsed().as_secs_f64(),
+                };
+                eprintln!("{}: {}", mesh.name, loading.summary());
+                loadings.push(loading);
+                mesh
+            }
             Source::Procedural(p) => BenchMesh::procedural(p, args.seed),
         };
         options.camera = match (args.eye, args.look_at) {
@@ -151,9 +166,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
         results.extend(measured);
     }
 
-    let table = report::table(&results);
+    let table = report::table(&results, &loadings);
     let version = Device::new("")?.info().version;
-    let json = serde_json::to_string_pretty(&report::to_json(&results, &options, &version))?;
+    let document = report::to_json(&results, &loadings, &options, &version);
+    let json = serde_json::to_string_pretty(&document)?;
     if let Some(path) = &args.json_out {
         io::write_atomically(path, json.as_bytes())?;
     }

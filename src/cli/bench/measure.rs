@@ -379,9 +379,9 @@ mod tests {
         }
         // The camera sees the sphere (diffuse rays leave a convex mesh and miss).
         assert!(hits("embree", Mode::Primary, Api::Single) > 0);
-        let table = table(&results);
+        let table = table(&results, &[]);
         assert!(table.contains("sphere:") && table.contains("diffuse"));
-        let json = to_json(&results, &options, "test");
+        let json = to_json(&results, &[], &options, "test");
         assert_eq!(json["results"].as_array().unwrap().len(), results.len());
     }
 }

@@ -104,13 +104,53 @@ impl Measurement {
     }
 }
 
+/// How long an OBJ mesh took to read into a scene (positions, triangles, materials and
+/// textures), as `ember render` reads it: the first part of its time to first sample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Loading {
+    pub mesh: String,
+    pub file_bytes: u64,
+    pub seconds: f64,
+}
+
+impl Loading {
+    pub fn mb_per_s(&self) -> f64 {
+        self.file_bytes as f64 / 1e6 / self.seconds.max(1e-9)
+    }
+
+    /// One line for the table and the progress output.
+    pub fn summary(&self) -> String {
+        format!(
+            "scene read in {:.3} s (OBJ {:.1} MB at {:.0} MB/s, with its MTL and textures)",
+            self.seconds,
+            self.file_bytes as f64 / 1e6,
+            self.mb_per_s()
+        )
+    }
+
+    fn to_json(&self) -> Value {
+        json!({
+            "mesh": self.mesh,
+            "file_bytes": self.file_bytes,
+            "seconds": self.seconds,
+            "mb_per_s": self.mb_per_s(),
+        })
+    }
+}
+
 /// The JSON document `ember bench --json` prints: the measurements and the setup.
-pub fn to_json(results: &[Measurement], options: &BenchOptions, embree_version: &str) -> Value {
+pub fn to_json(
+    results: &[Measurement],
+    loadings: &[Loading],
+    options: &BenchOptions,
+    embree_version: &str,
+) -> Value {
     json!({
         "ember_version": env!("CARGO_PKG_VERSION"),
         "embree_version": embree_version,
         "rays_per_set": options.rays,
         "threads": options.threads,
+        "loading": loadings.iter().map(Loading::to_json).collect::<Vec<_>>(),
         "results": results.iter().map(Measurement::to_json).collect::<Vec<_>>(),
     })
 }
@@ -119,7 +159,7 @@ pub fn to_json(results: &[Measurement], options: &BenchOptions, embree_version: 
 /// (medium quality for builds, single rays for traversal), the speed-up over the
 /// fewest threads, and how many cores the process kept busy while tracing (`cpu`: a
 /// speed-up cannot exceed it, so a low value means other programs held the cores).
-pub fn table(results: &[Measurement]) -> String {
+pub fn table(results: &[Measurement], loadings: &[Loading]) -> String {
     let mut s = String::new();
     let mut meshes: Vec<&str> = results.iter().map(|m| m.mesh.as_str()).collect();
     meshes.dedup();
@@ -131,6 +171,9 @@ pub fn table(results: &[Measurement]) -> String {
             rows[0].triangles,
             rows.iter().map(|m| m.rays).max().unwrap_or(0)
         );
+        if let Some(loading) = loadings.iter().find(|l| l.mesh == mesh) {
+            let _ = writeln!(s, "{}", loading.summary());
+        }
         let _ = writeln!(
             s,
             "{:<9} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>9} {:>5} {:>7}",
