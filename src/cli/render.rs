@@ -567,13 +567,16 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
         0 => String::new(),
         n => format!(", {n} NaN/infinite samples dropped"),
     };
-    // Peak resident memory of the whole run, per triangle: what loading at scale costs.
+    // Peak resident memory of the whole run, and per triangle what loading at scale
+    // costs; below 100k triangles the process and the film outweigh the mesh, and a
+    // figure per triangle would only mislead.
     let peak = match ember::limits::peak_resident_bytes() {
-        Some(bytes) => format!(
+        Some(bytes) if triangles >= 100_000 => format!(
             ", peak memory {} ({:.0} bytes/triangle)",
             ember::limits::human_bytes(bytes),
-            bytes as f64 / triangles.max(1) as f64
+            bytes as f64 / triangles as f64
         ),
+        Some(bytes) => format!(", peak memory {}", ember::limits::human_bytes(bytes)),
         None => String::new(),
     };
     eprintln!(
