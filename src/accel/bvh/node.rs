@@ -53,8 +53,11 @@ impl Child {
 
 /// Four children's boxes, `lo[axis][lane]` / `hi[axis][lane]`, and their references.
 /// Unused lanes have an empty box (`lo = +inf`, `hi = -inf`) that no ray can hit.
+/// Aligned to a cache line: 112 bytes at 16-byte alignment straddle three lines in
+/// half of the nodes, and traversal is bound by the lines it waits for (bvh_ab: 1-3%
+/// faster on every diffuse and shadow set at 64).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(64))]
 pub struct Node {
     pub lo: [[f32; WIDTH]; 3],
     pub hi: [[f32; WIDTH]; 3],
