@@ -4,8 +4,12 @@
 
 use super::aabb::Aabb;
 
-/// Cost of visiting a node relative to one ray/triangle test.
-pub const TRAVERSAL_COST: f32 = 2.0;
+/// Cost of visiting a node relative to one test of a block of four triangles. It
+/// decides only between a leaf and a split (every split pays it once): 1 makes leaves
+/// of two blocks where the two sides' boxes would cover the node's area. (2, leaves
+/// of two blocks wherever allowed, was 2-5% slower on diffuse rays; 0.5 gained half
+/// as much on shadow rays.)
+pub const TRAVERSAL_COST: f32 = 1.0;
 /// Intersection cost of `n` triangles: leaves test them four at a time.
 #[inline]
 pub fn blocks(n: usize) -> f32 {
