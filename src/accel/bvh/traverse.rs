@@ -4,6 +4,8 @@
 
 use std::cell::RefCell;
 
+use glam::Vec4;
+
 use super::node::{Child, Node, WIDTH};
 use super::triangle::RayShear;
 use super::Bvh;
@@ -57,10 +59,10 @@ fn with_fresh_stacks<R>(f: impl FnOnce(&mut Stacks) -> R) -> R {
     f(&mut fresh)
 }
 
-/// The per-ray constants of the slab test.
+/// The per-ray constants of the slab test, each in all four lanes.
 struct RayBoxes {
-    org: [f32; 3],
-    inv: [f32; 3],
+    org: [Vec4; 3],
+    inv: [Vec4; 3],
     neg: [bool; 3],
 }
 
@@ -69,42 +71,42 @@ impl RayBoxes {
     fn new(ray: &Ray) -> Self {
         // One packed division (each lane rounds as a scalar division would).
         let inv = glam::Vec3A::from(ray.dir).recip().to_array();
+        let org = ray.origin.to_array();
         RayBoxes {
-            org: ray.origin.to_array(),
-            inv,
-            neg: [
-                inv[0].is_sign_negative(),
-                inv[1].is_sign_negative(),
-                inv[2].is_sign_negative(),
-            ],
+            org: org.map(Vec4::splat),
+            inv: inv.map(Vec4::splat),
+            neg: inv.map(f32::is_sign_negative),
         }
     }
 
-    /// Entry distance of each lane, and a bit mask of the lanes whose box the ray
-    /// meets in `[tmin, tmax]` (bit `i` for lane `i`).
+    /// Entry distance of each lane, and a bit mask of the lanes whose box the ray meets
+    /// in `[tmin, tmax]` (bit `i` for lane `i`). Written with glam's four-lane vectors
+    /// rather than as loops for the compiler to vectorise, which it did in one way or
+    /// another depending on how the callers used the results (it split them into pairs
+    /// of lanes and scalars for a branch-free choice of the nearest child).
     #[inline(always)]
     fn test(&self, node: &Node, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
-        let mut near = [tmin; WIDTH];
-        let mut far = [tmax; WIDTH];
-        for axis in 0..3 {
-            let (n, f) = if self.neg[axis] {
-                (&node.hi[axis], &node.lo[axis])
-            } else {
-                (&node.lo[axis], &node.hi[axis])
-            };
-            let (o, inv) = (self.org[axis], self.inv[axis]);
-            for lane in 0..WIDTH {
-                let t0 = (n[lane] - o) * inv;
-                let t1 = (f[lane] - o) * inv;
-                // Written as comparisons so NaN (0 × ∞ on a box face) leaves the
-                // interval as it was, and so the loop becomes packed max/min.
-                near[lane] = if t0 > near[lane] { t0 } else { near[lane] };
-                far[lane] = if t1 < far[lane] { t1 } else { far[lane] };
-            }
-        }
+        let mut near = [0.0; WIDTH];
         let mut mask = 0u32;
-        for lane in 0..WIDTH {
-            mask |= u32::from(near[lane] <= far[lane] * FAR_SLACK) << lane;
+        for quad in 0..WIDTH / 4 {
+            let lanes = quad * 4..quad * 4 + 4;
+            let (mut n4, mut f4) = (Vec4::splat(tmin), Vec4::splat(tmax));
+            for axis in 0..3 {
+                let (n, f) = if self.neg[axis] {
+                    (&node.hi[axis], &node.lo[axis])
+                } else {
+                    (&node.lo[axis], &node.hi[axis])
+                };
+                let t0 = (Vec4::from_slice(&n[lanes.clone()]) - self.org[axis]) * self.inv[axis];
+                let t1 = (Vec4::from_slice(&f[lanes.clone()]) - self.org[axis]) * self.inv[axis];
+                // `max`/`min` keep their second operand where the first is NaN (0 × ∞
+                // on a box face), so the interval stays as it was there.
+                n4 = t0.max(n4);
+                f4 = t1.min(f4);
+            }
+            let hit = n4.cmple(f4 * FAR_SLACK);
+            mask |= hit.bitmask() << (quad * 4);
+            n4.write_to_slice(&mut near[lanes]);
         }
         (near, mask)
     }
