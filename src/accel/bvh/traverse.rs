@@ -1,5 +1,5 @@
 //! Traversal: front-to-back descent with one slab test for all of a node's children
-//! (one loop over the lanes that the compiler vectorises), watertight triangle tests in
+//! (four lanes at a time in SIMD), watertight triangle tests in
 //! the leaves, and per-thread stacks that are reused instead of zeroed for every ray.
 
 use std::cell::RefCell;
