@@ -112,32 +112,8 @@ impl RayBoxes {
     }
 }
 
-/// The children in `mask` sorted by entry distance, farthest first, and how many.
-#[inline(always)]
-fn sorted_far_to_near(
-    node: &Node,
-    near: &[f32; WIDTH],
-    mut mask: u32,
-) -> ([(Child, f32); WIDTH], usize) {
-    let mut kids = [(Child(0), 0.0f32); WIDTH];
-    let mut n = 0;
-    while mask != 0 {
-        let lane = mask.trailing_zeros() as usize;
-        mask &= mask - 1;
-        let kid = (node.child[lane], near[lane]);
-        let mut j = n;
-        while j > 0 && kids[j - 1].1 < kid.1 {
-            kids[j] = kids[j - 1];
-            j -= 1;
-        }
-        kids[j] = kid;
-        n += 1;
-    }
-    (kids, n)
-}
-
 /// The child of `node` to visit next among those in `mask` (not empty), the nearest;
-/// the others go onto `stack` above `sp`, farthest deepest.
+/// the others go onto `stack` above `sp` (with two, the farther deepest).
 #[inline(always)]
 fn descend(
     node: &Node,
@@ -165,12 +141,23 @@ fn descend(
         *sp += 1;
         return node.child[a];
     }
-    // More: farthest first onto the stack, nearest visited next.
-    let (kids, n) = sorted_far_to_near(node, near, mask);
-    // A fixed-size copy (the stack has room): no call to memcpy.
-    stack[*sp..*sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
-    *sp += n - 1;
-    kids[n - 1].0
+    // More: the nearest visited next, the others pushed in lane order. (Sorting them
+    // all, farthest deepest, cost more than it saved: most diffuse rays hit nothing,
+    // and for those the order is of no use.)
+    let mut nearest = first;
+    let mut rest = rest;
+    while rest != 0 {
+        let lane = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let far = if near[lane] < near[nearest] {
+            std::mem::replace(&mut nearest, lane)
+        } else {
+            lane
+        };
+        stack[*sp] = (node.child[far], near[far]);
+        *sp += 1;
+    }
+    node.child[nearest]
 }
 
 impl Bvh {
