@@ -89,6 +89,10 @@ impl RayBoxes {
         let mut near = [0.0; WIDTH];
         let mut mask = 0u32;
         for quad in 0..WIDTH / 4 {
+            // Children fill the lanes from the first; many nodes have four or fewer.
+            if quad > 0 && node.lo[0][quad * 4] == f32::INFINITY {
+                break;
+            }
             let lanes = quad * 4..quad * 4 + 4;
             let (mut n4, mut f4) = (Vec4::splat(tmin), Vec4::splat(tmax));
             for axis in 0..3 {
