@@ -315,8 +315,8 @@ fn build_node(
             _ => best_split::<OBJECT_BINS>(refs, bounds, &binner),
         }
     };
-    // Up to two blocks stay a leaf where the SAH finds no split cheaper: the descent
-    // one level further costs a shadow ray more than a second block test.
+    // Up to two blocks stay a leaf where the SAH finds no split cheaper: there a
+    // descent one level further costs a shadow ray more than a second block test.
     if n <= MAX_LEAF && split.map_or(true, |s| s.cost >= blocks(n)) {
         return leaf_of(refs, bounds);
     }
