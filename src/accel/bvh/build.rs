@@ -301,9 +301,8 @@ fn build_node(
 ) -> BuildNode {
     let n = refs.len();
     // A leaf's triangles are tested four at a time, as one block: splitting four or
-    // fewer gains nothing the leaf test would not give. More must split (a leaf holds
-    // one block).
-    if n <= MAX_LEAF {
+    // fewer gains nothing the leaf test would not give.
+    if n <= 4 {
         return leaf_of(refs, bounds);
     }
     let binner = Binner::new(centroids, bin_count(n));
@@ -316,6 +315,11 @@ fn build_node(
             _ => best_split::<OBJECT_BINS>(refs, bounds, &binner),
         }
     };
+    // Up to two blocks stay a leaf where the SAH finds no split cheaper: there a
+    // descent one level further costs a shadow ray more than a second block test.
+    if n <= MAX_LEAF && split.map_or(true, |s| s.cost >= blocks(n)) {
+        return leaf_of(refs, bounds);
+    }
     // Spatial splits copy the references of the two sides; object splits reorder them
     // in place.
     if let Some((mut left, mut right)) =

@@ -1,14 +1,18 @@
-//! ember's native BVH: a 4-wide tree built with the binned SAH ([`build`]), traversed
-//! front to back with four slab tests per node in one auto-vectorised loop
+//! ember's native BVH: an 8-wide tree built with the binned SAH ([`build`]), traversed
+//! front to back with the slab tests of a node's children four at a time in SIMD
 //! ([`traverse`]), and watertight ray/triangle tests ([`triangle`]) in the leaves.
 //! Any-hit traversal runs as AVX2 code where the processor has it, chosen at run time
 //! ([`simd`]). With a [`HitFilter`] ([`Bvh::with_filter`]) the leaves ask it about
 //! every intersection and traversal goes on past the ones it rejects (cut-outs), as
 //! Embree does with its filter functions.
 //!
-//! Nodes are 4 wide: [`node::WIDTH`] = 8 also builds and traces (the test suite was
-//! not run on it), but with AVX2 its 8-wide nodes measured 3-20% slower on the bunny,
-//! Sponza and the staircase.
+//! Nodes are 8 wide ([`node::WIDTH`], a multiple of 4; 4 builds and passes the tests
+//! too). Traversal waits on memory more than it computes, and an 8-wide tree is about
+//! half as deep: against 4-wide nodes, bvh_ab measured 8-wide 9-15% faster on shadow
+//! rays and on the bunny's diffuse rays, 8-15% slower on the short diffuse rays of
+//! Sponza and the staircase, which meet few nodes and pay for each node's eight boxes.
+//! (Before the slab test was written with explicit four-lane vectors, 8-wide nodes
+//! had measured 3-20% slower everywhere.)
 
 mod aabb;
 mod build;
@@ -121,7 +125,7 @@ impl Bvh {
         })
     }
 
-    /// Number of 4-wide nodes.
+    /// Number of wide nodes.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
     }

@@ -1,12 +1,14 @@
-//! The flattened 4-wide node: the bounds of four children as struct-of-arrays, so the
-//! four slab tests are one loop over `[f32; 4]` lanes that the compiler vectorises.
+//! The flattened wide node: the bounds of its children as struct-of-arrays, so their
+//! slab tests run four lanes at a time in SIMD.
 
-/// How many children an inner node has.
-pub const WIDTH: usize = 4;
+/// How many children an inner node has: a multiple of 4, the SIMD width of the slab
+/// test.
+pub const WIDTH: usize = 8;
+const _: () = assert!(WIDTH % 4 == 0);
 
-/// Most references a leaf holds: one block of four triangles, tested at once. (The leaf
-/// code could count up to 16 blocks; the builder makes leaves of one.)
-pub const MAX_LEAF: usize = 4;
+/// Most references a leaf holds: two blocks of four triangles, each tested at once.
+/// (The leaf code could count up to 16 blocks; leaves of up to two measured best.)
+pub const MAX_LEAF: usize = 8;
 
 /// Most triangle blocks a BVH can address: a leaf names its first block with 27 bits.
 /// The builder never makes more references than this (presplits and spatial splits
@@ -51,10 +53,13 @@ impl Child {
     }
 }
 
-/// Four children's boxes, `lo[axis][lane]` / `hi[axis][lane]`, and their references.
+/// The children's boxes, `lo[axis][lane]` / `hi[axis][lane]`, and their references.
 /// Unused lanes have an empty box (`lo = +inf`, `hi = -inf`) that no ray can hit.
+/// Aligned to a cache line: traversal is bound by the lines it waits for, and at
+/// 16-byte alignment a 4-wide node's 112 bytes straddled three lines in half of the
+/// nodes (bvh_ab: 1-3% faster on every diffuse and shadow set at 64).
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(64))]
 pub struct Node {
     pub lo: [[f32; WIDTH]; 3],
     pub hi: [[f32; WIDTH]; 3],

@@ -1,8 +1,10 @@
 //! Traversal: front-to-back descent with one slab test for all of a node's children
-//! (one loop over the lanes that the compiler vectorises), watertight triangle tests in
+//! (four lanes at a time in SIMD), watertight triangle tests in
 //! the leaves, and per-thread stacks that are reused instead of zeroed for every ray.
 
 use std::cell::RefCell;
+
+use glam::Vec4;
 
 use super::node::{Child, Node, WIDTH};
 use super::triangle::RayShear;
@@ -57,10 +59,10 @@ fn with_fresh_stacks<R>(f: impl FnOnce(&mut Stacks) -> R) -> R {
     f(&mut fresh)
 }
 
-/// The per-ray constants of the slab test.
+/// The per-ray constants of the slab test, each in all four lanes.
 struct RayBoxes {
-    org: [f32; 3],
-    inv: [f32; 3],
+    org: [Vec4; 3],
+    inv: [Vec4; 3],
     neg: [bool; 3],
 }
 
@@ -69,73 +71,53 @@ impl RayBoxes {
     fn new(ray: &Ray) -> Self {
         // One packed division (each lane rounds as a scalar division would).
         let inv = glam::Vec3A::from(ray.dir).recip().to_array();
+        let org = ray.origin.to_array();
         RayBoxes {
-            org: ray.origin.to_array(),
-            inv,
-            neg: [
-                inv[0].is_sign_negative(),
-                inv[1].is_sign_negative(),
-                inv[2].is_sign_negative(),
-            ],
+            org: org.map(Vec4::splat),
+            inv: inv.map(Vec4::splat),
+            neg: inv.map(f32::is_sign_negative),
         }
     }
 
-    /// Entry distance of each lane, and a bit mask of the lanes whose box the ray
-    /// meets in `[tmin, tmax]` (bit `i` for lane `i`).
+    /// Entry distance of each lane, and a bit mask of the lanes whose box the ray meets
+    /// in `[tmin, tmax]` (bit `i` for lane `i`). Written with glam's four-lane vectors
+    /// rather than as loops for the compiler to vectorise, which it did in one way or
+    /// another depending on how the callers used the results (it split them into pairs
+    /// of lanes and scalars for a branch-free choice of the nearest child).
     #[inline(always)]
     fn test(&self, node: &Node, tmin: f32, tmax: f32) -> ([f32; WIDTH], u32) {
-        let mut near = [tmin; WIDTH];
-        let mut far = [tmax; WIDTH];
-        for axis in 0..3 {
-            let (n, f) = if self.neg[axis] {
-                (&node.hi[axis], &node.lo[axis])
-            } else {
-                (&node.lo[axis], &node.hi[axis])
-            };
-            let (o, inv) = (self.org[axis], self.inv[axis]);
-            for lane in 0..WIDTH {
-                let t0 = (n[lane] - o) * inv;
-                let t1 = (f[lane] - o) * inv;
-                // Written as comparisons so NaN (0 × ∞ on a box face) leaves the
-                // interval as it was, and so the loop becomes packed max/min.
-                near[lane] = if t0 > near[lane] { t0 } else { near[lane] };
-                far[lane] = if t1 < far[lane] { t1 } else { far[lane] };
-            }
-        }
+        let mut near = [0.0; WIDTH];
         let mut mask = 0u32;
-        for lane in 0..WIDTH {
-            mask |= u32::from(near[lane] <= far[lane] * FAR_SLACK) << lane;
+        for quad in 0..WIDTH / 4 {
+            // Children fill the lanes from the first; many nodes have four or fewer.
+            if quad > 0 && node.lo[0][quad * 4] == f32::INFINITY {
+                break;
+            }
+            let lanes = quad * 4..quad * 4 + 4;
+            let (mut n4, mut f4) = (Vec4::splat(tmin), Vec4::splat(tmax));
+            for axis in 0..3 {
+                let (n, f) = if self.neg[axis] {
+                    (&node.hi[axis], &node.lo[axis])
+                } else {
+                    (&node.lo[axis], &node.hi[axis])
+                };
+                let t0 = (Vec4::from_slice(&n[lanes.clone()]) - self.org[axis]) * self.inv[axis];
+                let t1 = (Vec4::from_slice(&f[lanes.clone()]) - self.org[axis]) * self.inv[axis];
+                // `max`/`min` keep their second operand where the first is NaN (0 × ∞
+                // on a box face), so the interval stays as it was there.
+                n4 = t0.max(n4);
+                f4 = t1.min(f4);
+            }
+            let hit = n4.cmple(f4 * FAR_SLACK);
+            mask |= hit.bitmask() << (quad * 4);
+            n4.write_to_slice(&mut near[lanes]);
         }
         (near, mask)
     }
 }
 
-/// The children in `mask` sorted by entry distance, farthest first, and how many.
-#[inline(always)]
-fn sorted_far_to_near(
-    node: &Node,
-    near: &[f32; WIDTH],
-    mut mask: u32,
-) -> ([(Child, f32); WIDTH], usize) {
-    let mut kids = [(Child(0), 0.0f32); WIDTH];
-    let mut n = 0;
-    while mask != 0 {
-        let lane = mask.trailing_zeros() as usize;
-        mask &= mask - 1;
-        let kid = (node.child[lane], near[lane]);
-        let mut j = n;
-        while j > 0 && kids[j - 1].1 < kid.1 {
-            kids[j] = kids[j - 1];
-            j -= 1;
-        }
-        kids[j] = kid;
-        n += 1;
-    }
-    (kids, n)
-}
-
 /// The child of `node` to visit next among those in `mask` (not empty), the nearest;
-/// the others go onto `stack` above `sp`, farthest deepest.
+/// the others go onto `stack` above `sp` (with two, the farther deepest).
 #[inline(always)]
 fn descend(
     node: &Node,
@@ -163,12 +145,23 @@ fn descend(
         *sp += 1;
         return node.child[a];
     }
-    // More: farthest first onto the stack, nearest visited next.
-    let (kids, n) = sorted_far_to_near(node, near, mask);
-    // A fixed-size copy (the stack has room): no call to memcpy.
-    stack[*sp..*sp + WIDTH - 1].copy_from_slice(&kids[..WIDTH - 1]);
-    *sp += n - 1;
-    kids[n - 1].0
+    // More: the nearest visited next, the others pushed in lane order. (Sorting them
+    // all, farthest deepest, cost more than it saved: most diffuse rays hit nothing,
+    // and for those the order is of no use.)
+    let mut nearest = first;
+    let mut rest = rest;
+    while rest != 0 {
+        let lane = rest.trailing_zeros() as usize;
+        rest &= rest - 1;
+        let far = if near[lane] < near[nearest] {
+            std::mem::replace(&mut nearest, lane)
+        } else {
+            lane
+        };
+        stack[*sp] = (node.child[far], near[far]);
+        *sp += 1;
+    }
+    node.child[nearest]
 }
 
 impl Bvh {
