@@ -13,9 +13,9 @@ use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels}
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-/// (9: Embree builds meshes of a million triangles or more in its compact layout,
-/// whose hits can differ in the last bits.)
-pub const ALGORITHM_VERSION: u32 = 9;
+/// (10: the native BVH's 8-wide nodes, whose traversal order may settle a tie between
+/// equally near triangles differently.)
+pub const ALGORITHM_VERSION: u32 = 10;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
