@@ -133,13 +133,11 @@ pub fn run(args: BenchArgs) -> Result<()> {
             Source::Obj(path) => {
                 let start = Instant::now();
                 let mesh = BenchMesh::from_obj(path)?;
-                let loading = Loading {
+                loadings.push(Loading {
                     mesh: mesh.name.clone(),
                     file_bytes: std::fs::metadata(path).map_or(0, |m| m.len()),
                     seconds: start.elapsed().as_secs_f64(),
-                };
-                eprintln!("{}: {}", mesh.name, loading.summary());
-                loadings.push(loading);
+                });
                 mesh
             }
             Source::Procedural(p) => BenchMesh::procedural(p, args.seed),
@@ -156,10 +154,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 })
             }
         };
+        let loading = loadings.iter().find(|l| l.mesh == mesh.name);
         eprintln!(
-            "benchmarking {}: {} triangles",
+            "benchmarking {}: {} triangles{}",
             mesh.name,
-            mesh.triangles().len()
+            mesh.triangles().len(),
+            loading.map_or(String::new(), |l| format!("; {}", l.summary()))
         );
         let measured = measure::run(&mesh, &options)
             .with_context(|| format!("benchmark of {} failed", mesh.name))?;
