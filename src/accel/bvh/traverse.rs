@@ -148,8 +148,19 @@ fn descend(
     // More: the nearest visited next, the others pushed in lane order. (Sorting them
     // all, farthest deepest, cost more than it saved: most diffuse rays hit nothing,
     // and for those the order is of no use.)
-    let mut nearest = first;
-    let mut rest = rest;
+    let nearest = nearest_lane(near, mask, |far| {
+        stack[*sp] = (node.child[far], near[far]);
+        *sp += 1;
+    });
+    node.child[nearest]
+}
+
+/// The lane of `mask` (not empty) whose child is entered nearest; every other lane
+/// of `mask` is handed to `push`, in lane order.
+#[inline(always)]
+fn nearest_lane(near: &[f32; WIDTH], mask: u32, mut push: impl FnMut(usize)) -> usize {
+    let mut nearest = mask.trailing_zeros() as usize;
+    let mut rest = mask & (mask - 1);
     while rest != 0 {
         let lane = rest.trailing_zeros() as usize;
         rest &= rest - 1;
@@ -158,10 +169,9 @@ fn descend(
         } else {
             lane
         };
-        stack[*sp] = (node.child[far], near[far]);
-        *sp += 1;
+        push(far);
     }
-    node.child[nearest]
+    nearest
 }
 
 impl Bvh {
@@ -276,19 +286,10 @@ impl Bvh {
                     // visit it next, push the others. (Pushing them in order too, as
                     // for the nearest hit, was 5% slower on Sponza; visiting the first
                     // child instead of the nearest, 40% slower.)
-                    let mut nearest = mask.trailing_zeros() as usize;
-                    let mut rest = mask & (mask - 1);
-                    while rest != 0 {
-                        let lane = rest.trailing_zeros() as usize;
-                        rest &= rest - 1;
-                        let far = if near[lane] < near[nearest] {
-                            std::mem::replace(&mut nearest, lane)
-                        } else {
-                            lane
-                        };
+                    let nearest = nearest_lane(&near, mask, |far| {
                         stack[sp] = node.child[far];
                         sp += 1;
-                    }
+                    });
                     cur = node.child[nearest];
                     continue;
                 }
