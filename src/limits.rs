@@ -21,15 +21,22 @@ pub fn available_memory() -> Option<u64> {
 
 /// The `MemAvailable:` line of `/proc/meminfo` text, in bytes.
 pub fn parse_meminfo_available(meminfo: &str) -> Option<u64> {
-    let line = meminfo.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let mut words = line.split_whitespace().skip(1);
-    let value: u64 = words.next()?.parse().ok()?;
-    let unit = match words.next() {
+    let (value, unit) = proc_field(meminfo, "MemAvailable:")?;
+    let unit = match unit {
         Some("kB") => 1024,
         None => 1,
         Some(_) => return None,
     };
     value.checked_mul(unit)
+}
+
+/// The number and the unit word (if any) of the line `key value [unit]` of a
+/// `/proc` text such as `meminfo` or `status`.
+fn proc_field<'a>(text: &'a str, key: &str) -> Option<(u64, Option<&'a str>)> {
+    let line = text.lines().find(|l| l.starts_with(key))?;
+    let mut words = line.split_whitespace().skip(1);
+    let value = words.next()?.parse().ok()?;
+    Some((value, words.next()))
 }
 
 /// The most resident memory this process has held so far (`VmHWM` of
@@ -41,10 +48,8 @@ pub fn peak_resident_bytes() -> Option<u64> {
 
 /// The `VmHWM:` line of `/proc/self/status` text, in bytes.
 pub fn parse_status_peak(status: &str) -> Option<u64> {
-    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
-    let mut words = line.split_whitespace().skip(1);
-    let kib: u64 = words.next()?.parse().ok()?;
-    (words.next() == Some("kB")).then(|| kib.checked_mul(1024))?
+    let (kib, unit) = proc_field(status, "VmHWM:")?;
+    (unit == Some("kB")).then(|| kib.checked_mul(1024))?
 }
 
 /// `bytes` for people: "512 B", "3.2 MiB", "17.0 GiB".
