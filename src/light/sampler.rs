@@ -186,7 +186,7 @@ impl LightSampler {
                     emission: material(t).emission,
                     area_density: if area > 0.0 { probability / area } else { 0.0 },
                     map: material(t).maps.emission.unwrap_or(NO_MAP),
-                    uvs: corner_uvs(mesh, t),
+                    uvs: mesh.corner_uvs(t),
                 }
             })
             .collect();
@@ -377,15 +377,6 @@ impl LightSampler {
             0.0
         }
     }
-}
-
-/// The texture coordinates of triangle `t`'s corners; without any, its barycentrics
-/// (as in `TriangleMesh::surface`).
-fn corner_uvs(mesh: &TriangleMesh, t: u32) -> [Vec2; 3] {
-    if mesh.uvs.is_empty() {
-        return [Vec2::ZERO, Vec2::X, Vec2::Y];
-    }
-    mesh.triangles[t as usize].map(|i| mesh.uvs[i as usize])
 }
 
 /// The largest `f32` below 1: rescaled uniforms can round up to 1.0.

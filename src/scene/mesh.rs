@@ -72,6 +72,16 @@ impl TriangleMesh {
         ]
     }
 
+    /// The texture coordinates of triangle `prim`'s corners; without any, the corners'
+    /// barycentrics, so that interpolating them gives the hit's `(u, v)` as
+    /// [`surface`](Self::surface) does.
+    pub fn corner_uvs(&self, prim: u32) -> [Vec2; 3] {
+        if self.uvs.is_empty() {
+            return [Vec2::ZERO, Vec2::X, Vec2::Y];
+        }
+        self.triangles[prim as usize].map(|i| self.uvs[i as usize])
+    }
+
     /// `(v1 - v0) × (v2 - v0)`: twice the area, pointing to the counter-clockwise side.
     pub fn area_normal(&self, prim: u32) -> Vec3 {
         let [a, b, c] = self.vertices(prim);

@@ -151,8 +151,7 @@ impl Scene {
         let corners = self.mesh.triangles[hit.prim as usize].map(|i| i as usize);
         if let Some(id) = maps.bump {
             let p = corners.map(|i| self.mesh.positions[i]);
-            let uv: [Vec2; 3] = corners.map(|i| self.mesh.uvs[i]);
-            return match uv_derivatives(p, uv) {
+            return match uv_derivatives(p, self.mesh.corner_uvs(hit.prim)) {
                 Some((dpdu, dpdv)) => bump(
                     surface.ns,
                     dpdu,
@@ -184,12 +183,16 @@ impl Scene {
     /// clamped to [0, 1] like `Kd`.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
-        match material.diffuse_texture {
-            Some(t) => self
-                .texture(t)
-                .sample(surface.uv)
-                .clamp(Vec3::ZERO, Vec3::ONE),
-            None => material.diffuse,
+        self.reflectance(material.diffuse_texture, material.diffuse, surface.uv)
+    }
+
+    /// A reflectance colour at `uv`: its map's value clamped to [0, 1] like the
+    /// constant, or the constant where there is no map.
+    #[inline]
+    fn reflectance(&self, map: Option<u32>, constant: Vec3, uv: Vec2) -> Vec3 {
+        match map {
+            Some(t) => self.texture(t).sample(uv).clamp(Vec3::ZERO, Vec3::ONE),
+            None => constant,
         }
     }
 
@@ -204,13 +207,7 @@ impl Scene {
         } else {
             Vec3::ZERO
         };
-        let specular = match maps.specular {
-            Some(t) => self
-                .texture(t)
-                .sample(surface.uv)
-                .clamp(Vec3::ZERO, Vec3::ONE),
-            None => material.specular,
-        };
+        let specular = self.reflectance(maps.specular, material.specular, surface.uv);
         let metallic = match maps.metallic {
             Some(t) => material.metallic * self.texture(t).sample_scalar(surface.uv),
             None => material.metallic,
