@@ -135,7 +135,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 let mesh = BenchMesh::from_obj(path)?;
                 loadings.push(Loading {
                     mesh: mesh.name.clone(),
-                    file_bytes: std::fs::metadata(path).map_or(0, |m| m.len()),
+                    file_bytes: mesh.obj_bytes,
                     seconds: start.elapsed().as_secs_f64(),
                 });
                 mesh

@@ -429,7 +429,7 @@ fn finish_render<A: Accel>(
     };
     // Only now that every input has been checked: a failing run prints one line.
     report_loading(plan, loaded);
-    report_start(plan, &film, timeline);
+    report_start(plan, &film, timeline, loaded.report.obj_bytes);
     let checkpointing = plan.checkpoint_every.map(|every| Checkpointing {
         every,
         write: &periodic,
@@ -512,7 +512,7 @@ fn shard_note(plan: &RenderPlan) -> String {
     }
 }
 
-fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline) {
+fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_bytes: u64) {
     let s = &plan.settings;
     let resumed = if plan.resume {
         format!(
@@ -524,7 +524,6 @@ fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline) {
     };
     let first_sample = timeline.started.elapsed();
     let loading = timeline.loaded.as_secs_f64();
-    let obj_bytes = std::fs::metadata(&plan.scene).map_or(0, |m| m.len());
     eprintln!(
         "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {loading:.2} s \
          at {:.0} MB/s of OBJ, accelerator {:.2} s)",

@@ -15,6 +15,8 @@ use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, T
 /// Facts about a load worth telling the user.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
 pub struct LoadReport {
+    /// Bytes of OBJ text read (what the loading rate is measured in).
+    pub obj_bytes: u64,
     pub triangles: usize,
     pub vertices: usize,
     pub materials: usize,
@@ -285,6 +287,7 @@ fn load_obj_text(
     text: Cow<'_, str>,
     sources: &Sources<'_>,
 ) -> Result<(Scene, LoadReport), SceneError> {
+    let obj_bytes = text.len() as u64;
     let names_materials = mentions_usemtl(&text);
     let Parsed {
         models,
@@ -292,7 +295,10 @@ fn load_obj_text(
         mtl_dirs,
     } = parse(path, &text, sources)?;
     drop(text);
-    let mut report = LoadReport::default();
+    let mut report = LoadReport {
+        obj_bytes,
+        ..LoadReport::default()
+    };
     // Faces without a (known) material use a matte grey at the end of the list.
     let default_material = tobj_materials.len() as u32;
     let mesh = build_mesh(path, &models, default_material, &mut report)?;

@@ -14,12 +14,14 @@ pub struct BenchMesh {
     /// The scene's mesh, so ray sets find surface points the way the renderer does.
     pub mesh: TriangleMesh,
     pub lights: Vec<u32>,
+    /// Bytes of OBJ text read (0 for procedural meshes).
+    pub obj_bytes: u64,
 }
 
 impl BenchMesh {
     /// The triangles of an OBJ scene; its emissive triangles are the lights.
     pub fn from_obj(path: &Path) -> Result<BenchMesh, SceneError> {
-        let (scene, _) = load_obj(path)?;
+        let (scene, report) = load_obj(path)?;
         let name = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into(),
@@ -28,6 +30,7 @@ impl BenchMesh {
             name,
             mesh: scene.mesh,
             lights: scene.emitters,
+            obj_bytes: report.obj_bytes,
         })
     }
 
@@ -49,6 +52,7 @@ impl BenchMesh {
                 ..TriangleMesh::default()
             },
             lights: Vec::new(),
+            obj_bytes: 0,
         }
     }
 
