@@ -54,6 +54,26 @@ pub struct Texture {
 static SRGB8_TO_LINEAR: LazyLock<[f32; 256]> =
     LazyLock::new(|| std::array::from_fn(|i| srgb_to_linear(i as f32 / 255.0)));
 
+/// Texel `i` of 8-bit sRGB colour, decoded through `table`.
+#[inline(always)]
+fn srgb8(table: &[f32; 256], t: &[u8], i: usize) -> Vec3 {
+    let [r, g, b] = [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
+    Vec3::new(table[r as usize], table[g as usize], table[b as usize])
+}
+
+/// Texel `i` of 8-bit linear RGB data.
+#[inline(always)]
+fn rgb8(t: &[u8], i: usize) -> Vec3 {
+    let [r, g, b] = [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
+    Vec3::new(r.into(), g.into(), b.into()) / 255.0
+}
+
+/// Texel `i` of an 8-bit single channel, in x, y and z.
+#[inline(always)]
+fn gray8(t: &[u8], i: usize) -> Vec3 {
+    Vec3::splat(f32::from(t[i]) / 255.0)
+}
+
 /// The four texels around a lookup point and their bilinear weights.
 struct Footprint {
     index: [usize; 4],
@@ -128,18 +148,10 @@ impl Texture {
     /// The value of texel `i` (row-major); single channels are repeated in x, y and z.
     #[inline]
     pub fn texel(&self, i: usize) -> Vec3 {
-        let rgb = |t: &[u8]| [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
         match &self.texels {
-            Texels::Srgb8(t) => {
-                let table = &*SRGB8_TO_LINEAR;
-                let [r, g, b] = rgb(t);
-                Vec3::new(table[r as usize], table[g as usize], table[b as usize])
-            }
-            Texels::Rgb8(t) => {
-                let [r, g, b] = rgb(t);
-                Vec3::new(r.into(), g.into(), b.into()) / 255.0
-            }
-            Texels::Gray8(t) => Vec3::splat(f32::from(t[i]) / 255.0),
+            Texels::Srgb8(t) => srgb8(&SRGB8_TO_LINEAR, t, i),
+            Texels::Rgb8(t) => rgb8(t, i),
+            Texels::Gray8(t) => gray8(t, i),
             Texels::RgbF32(t) => t[i],
             Texels::GrayF32(t) => Vec3::splat(t[i]),
         }
@@ -152,23 +164,16 @@ impl Texture {
         let Some(f) = self.footprint(uv) else {
             return Vec3::ZERO;
         };
-        // One dispatch on the storage per lookup rather than per texel: the match, the
-        // table's lazy initialisation check and the slice bounds are then hoisted out
-        // of the four fetches.
-        let rgb = |t: &[u8], i: usize| [t[3 * i], t[3 * i + 1], t[3 * i + 2]];
+        // One dispatch on the storage per lookup rather than per texel (`texel`): the
+        // match and the table's lazy initialisation check leave the four fetches
+        // (staircase, 1 thread: 3-4% faster).
         match &self.texels {
             Texels::Srgb8(t) => {
                 let table = &*SRGB8_TO_LINEAR;
-                f.filter(|i| {
-                    let [r, g, b] = rgb(t, i);
-                    Vec3::new(table[r as usize], table[g as usize], table[b as usize])
-                })
+                f.filter(|i| srgb8(table, t, i))
             }
-            Texels::Rgb8(t) => f.filter(|i| {
-                let [r, g, b] = rgb(t, i);
-                Vec3::new(r.into(), g.into(), b.into()) / 255.0
-            }),
-            Texels::Gray8(t) => f.filter(|i| Vec3::splat(f32::from(t[i]) / 255.0)),
+            Texels::Rgb8(t) => f.filter(|i| rgb8(t, i)),
+            Texels::Gray8(t) => f.filter(|i| gray8(t, i)),
             Texels::RgbF32(t) => f.filter(|i| t[i]),
             Texels::GrayF32(t) => f.filter(|i| Vec3::splat(t[i])),
         }
