@@ -74,9 +74,7 @@ impl TextureLoader {
         material: &str,
         kind: TextureKind,
     ) -> Result<((u32, Option<u32>), f32), SceneError> {
-        let options = parse_statement(statement)
-            .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
-        let file = self.find(&options.file, slot, material)?;
+        let (file, options) = self.find(statement, slot, material)?;
         let key = (file, kind, slot == "map_Kd");
         if let Some(&ids) = self.texture_ids.get(&key) {
             return Ok((ids, options.bump_scale));
@@ -103,9 +101,7 @@ impl TextureLoader {
 
     /// A `map_d`: the index of its alpha map (alpha channel, else luminance).
     pub fn opacity(&mut self, statement: &str, material: &str) -> Result<u32, SceneError> {
-        let options = parse_statement(statement)
-            .map_err(|reason| error(Path::new(statement.trim()), "map_d", material, reason))?;
-        let file = self.find(&options.file, "map_d", material)?;
+        let (file, _) = self.find(statement, "map_d", material)?;
         let key = (file, true);
         if let Some(&id) = self.alpha_ids.get(&key) {
             return Ok(id);
@@ -118,11 +114,26 @@ impl TextureLoader {
         Ok(id)
     }
 
-    fn find(&self, name: &str, slot: &'static str, material: &str) -> Result<PathBuf, SceneError> {
-        find_texture(name, &self.dirs).ok_or_else(|| {
+    /// The file a texture statement names, found next to the OBJ or one of its MTL
+    /// files, and the statement's options.
+    fn find(
+        &self,
+        statement: &str,
+        slot: &'static str,
+        material: &str,
+    ) -> Result<(PathBuf, TextureOptions), SceneError> {
+        let options = parse_statement(statement)
+            .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
+        let file = find_texture(&options.file, &self.dirs).ok_or_else(|| {
             let dir = self.dirs.first().map_or(Path::new(""), PathBuf::as_path);
-            error(&dir.join(name), slot, material, "file not found".into())
-        })
+            error(
+                &dir.join(&options.file),
+                slot,
+                material,
+                "file not found".into(),
+            )
+        })?;
+        Ok((file, options))
     }
 }
 
