@@ -20,6 +20,7 @@ use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
 use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::image::{self, Tonemap};
 use ember::render::{
@@ -530,10 +531,15 @@ fn finish_render<A: Accel>(
 /// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
 /// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
 fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
-    if !plan.aovs.is_empty() || plan.denoise {
-        bail!("--aov and --denoise are being wired in");
+    if plan.denoise {
+        bail!("--denoise is being wired in");
     }
-    Ok(film.resolve().save_with(path, &plan.tonemap)?)
+    let output = FilmOutput {
+        aovs: &plan.aovs,
+        denoise: plan.denoise,
+        tonemap: &plan.tonemap,
+    };
+    Ok(output.write(film, path)?)
 }
 
 /// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second
