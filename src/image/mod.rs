@@ -3,9 +3,11 @@
 //! references) is decoded to linear RGB. Files appear whole or not at all ([`crate::io`]).
 
 mod compare;
+pub mod layers;
 mod tonemap;
 
 pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+pub use layers::{Layer, LayerError, LayeredImage};
 pub use tonemap::{ToneCurve, Tonemap};
 
 use std::path::{Path, PathBuf};
