@@ -18,10 +18,13 @@ use signal_hook::consts::{SIGINT, SIGTERM};
 use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
+use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::{shard_samples, Film};
 use ember::image::{self, Tonemap};
-use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
+use ember::render::{
+    self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
+};
 use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
 
 #[derive(Args)]
@@ -43,9 +46,31 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
     height: u32,
-    /// Samples per pixel.
+    /// Samples per pixel (with --noise-threshold or --time-limit, the most any pixel takes).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     spp: u32,
+    /// Adaptive sampling: after each pass, a pixel goes on only while its estimated
+    /// relative error (standard error over sqrt(mean² + 0.01), as `ember compare`'s
+    /// relMSE weighs it) is above T, in it or any of its eight neighbours. A render
+    /// whose pixels all reach T has a relMSE of about T².
+    #[arg(long, value_name = "T", value_parser = parse_threshold)]
+    noise_threshold: Option<f32>,
+    /// With --noise-threshold, the samples a pixel takes before it may stop
+    /// [default: 16, or --spp if fewer].
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    min_spp: Option<u32>,
+    /// Render passes until SECONDS have gone by (from the start of rendering), then
+    /// write the image; earlier if --spp or --noise-threshold is reached first.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    time_limit: Option<f64>,
+    /// Render passes to add to an .exr output as layers, comma-separated:
+    /// albedo, normal, depth, variance, spp.
+    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = parse_aov)]
+    aov: Vec<Aov>,
+    /// Denoise the image with Intel Open Image Denoise (its RT filter, guided by the
+    /// albedo and normal passes); an .exr output keeps the noisy image as layer "noisy".
+    #[arg(long)]
+    denoise: bool,
     /// Maximum path length in segments, the camera ray included (1: emitters only,
     /// 2: direct lighting).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
@@ -173,6 +198,10 @@ struct RenderPlan {
     background: Option<Vec3>,
     env: Option<EnvRequest>,
     tonemap: Tonemap,
+    /// Passes written beside the image (EXR output only).
+    aovs: Vec<Aov>,
+    denoise: bool,
+    time_limit: Option<Duration>,
     shard: Option<(u32, u32)>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
@@ -189,6 +218,18 @@ impl RenderPlan {
         let samples = args
             .shard
             .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
+        let adaptive = args.noise_threshold.map(|threshold| {
+            let whole = Adaptive {
+                threshold,
+                min_spp: args
+                    .min_spp
+                    .unwrap_or_else(|| Adaptive::default_min_spp(args.spp)),
+            };
+            // Each shard aims at the error that its merge with the others reaches T.
+            args.shard.map_or(whole, |(_, n)| whole.for_shard_of(n))
+        });
+        let mut aovs = args.aov;
+        aovs.dedup();
         RenderPlan {
             scene: args.scene,
             output,
@@ -204,6 +245,7 @@ impl RenderPlan {
                 max_depth: args.max_depth,
                 seed: args.seed,
                 integrator: args.integrator.into(),
+                adaptive,
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -218,6 +260,9 @@ impl RenderPlan {
                 rotate: args.env_rotate,
             }),
             tonemap: args.tone.into(),
+            aovs,
+            denoise: args.denoise,
+            time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
             samples,
         }
@@ -234,6 +279,14 @@ impl RenderPlan {
             ember::io::check_writable(&self.output)?;
         } else {
             image::check_output(&self.output)?;
+            let exr = image::OutputFormat::from_path(&self.output)? == image::OutputFormat::Exr;
+            if !self.aovs.is_empty() && !exr {
+                bail!(
+                    "--aov needs an .exr output, which holds the passes as layers beside the \
+                     image; {} holds one image",
+                    self.output.display()
+                );
+            }
         }
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
@@ -269,6 +322,7 @@ impl RenderPlan {
             samples: self.samples.clone(),
             shard: self.shard,
             min_done: 0,
+            complete: false,
         }
     }
 }
@@ -285,6 +339,20 @@ fn parse_env_scale(s: &str) -> Result<f32, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
     }
+}
+
+fn parse_threshold(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a relative error > 0 (e.g. 0.05)")),
+    }
+}
+
+fn parse_aov(s: &str) -> Result<Aov, String> {
+    Aov::from_name(s.trim()).ok_or_else(|| {
+        let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown pass {s:?}: choose from {}", names.join(", "))
+    })
 }
 
 fn parse_degrees(s: &str) -> Result<f32, String> {
@@ -434,15 +502,13 @@ fn finish_render<A: Accel>(
         every,
         write: &periodic,
     });
-    let (film, stats) = pool.install(|| {
-        render_with_progress(loaded, accel, &plan.settings, film, &stop, checkpointing)
-    });
+    let (film, stats, passes) =
+        pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
 
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
         if plan.shard.is_none() {
-            film.resolve()
-                .save_with(&partial_output(&plan.output), &plan.tonemap)?;
+            write_image(plan, &film, &partial_output(&plan.output))?;
         }
         save_checkpoint(&film)?;
         report_interrupted(plan, &film, signal);
@@ -451,14 +517,23 @@ fn finish_render<A: Accel>(
     if plan.shard.is_some() {
         save_checkpoint(&film)?;
     } else {
-        film.resolve().save_with(&plan.output, &plan.tonemap)?;
+        write_image(plan, &film, &plan.output)?;
         if plan.checkpoint_every.is_some() || plan.resume {
             // Keep the final state: a later --resume with a higher --spp refines it.
             save_checkpoint(&film)?;
         }
     }
-    report_finished(plan, accel.name(), &stats, loaded.report.triangles);
+    report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
+/// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
+fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
+    if !plan.aovs.is_empty() || plan.denoise {
+        bail!("--aov and --denoise are being wired in");
+    }
+    Ok(film.resolve().save_with(path, &plan.tonemap)?)
 }
 
 /// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second
@@ -560,7 +635,13 @@ fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
     );
 }
 
-fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangles: usize) {
+fn report_finished(
+    plan: &RenderPlan,
+    accel: &str,
+    stats: &RenderStats,
+    passes: &PassReport,
+    triangles: usize,
+) {
     let s = &plan.settings;
     let dropped = match stats.dropped_samples {
         0 => String::new(),
@@ -578,12 +659,16 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
         Some(bytes) => format!(", peak memory {}", ember::limits::human_bytes(bytes)),
         None => String::new(),
     };
+    let spp = if s.adaptive.is_some() || plan.time_limit.is_some() {
+        spp_summary(passes)
+    } else {
+        format!("{} spp", s.spp)
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
+        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
         plan.output.display(),
         s.width,
         s.height,
-        s.spp,
         shard_note(plan),
         stats.seconds,
         stats.samples_per_second(),
@@ -594,28 +679,65 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
 fn render_with_progress<A: Accel>(
     loaded: &LoadedScene,
     accel: &A,
-    settings: &RenderSettings,
+    plan: &RenderPlan,
     film: Film,
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
-) -> (Film, RenderStats) {
-    let total = u64::from(settings.width) * u64::from(settings.height) * film.samples.len() as u64;
-    let bar = ProgressBar::new(total);
-    bar.set_position(film.total_done());
+) -> (Film, RenderStats, PassReport) {
+    let settings = &plan.settings;
+    let started = Instant::now();
+    let deadline = plan.time_limit.map(|limit| started + limit);
+    // A time-limited render's bar is its time; any other's, its samples, less those
+    // that converged pixels will not take.
+    let bar = match plan.time_limit {
+        Some(limit) => ProgressBar::new(limit.as_millis().max(1) as u64),
+        None => {
+            let pixels = u64::from(settings.width) * u64::from(settings.height);
+            let bar = ProgressBar::new(pixels * film.samples.len() as u64);
+            bar.set_position(film.total_done());
+            bar
+        }
+    };
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
+            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta}) {msg}",
         )
         .expect("static template is valid"),
     );
+    let on_samples = |samples: u64| match plan.time_limit {
+        Some(limit) => bar.set_position(started.elapsed().min(limit).as_millis() as u64),
+        None => bar.inc(samples),
+    };
+    let on_pass = |report: &PassReport| {
+        if plan.time_limit.is_none() {
+            bar.set_length(bar.position() + report.remaining);
+        }
+        if settings.adaptive.is_some() || plan.time_limit.is_some() {
+            bar.set_message(spp_summary(report));
+        }
+    };
     let control = RenderControl {
         stop,
-        on_samples: &|samples| bar.inc(samples),
+        on_samples: &on_samples,
         first_pass_spp: 1,
         checkpoint,
+        deadline,
+        on_pass: &on_pass,
     };
     let (scene, camera) = (&loaded.scene, &loaded.camera);
-    let result = render::render_progressive(scene, accel, camera, settings, film, &control);
+    let (film, stats) = render::render_progressive(scene, accel, camera, settings, film, &control);
     bar.finish_and_clear();
-    result
+    let report = PassReport::of(&film);
+    (film, stats, report)
+}
+
+/// `spp 16/23.5/64 (min/mean/max), 41.2% converged`.
+fn spp_summary(report: &PassReport) -> String {
+    format!(
+        "spp {}/{:.1}/{} (min/mean/max), {:.1}% converged",
+        report.min_spp,
+        report.mean_spp,
+        report.max_spp,
+        100.0 * report.converged_fraction()
+    )
 }

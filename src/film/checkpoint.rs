@@ -3,12 +3,16 @@
 //! files; they are written atomically and checked whole on reading.
 //!
 //! Layout (little-endian): the magic `EMBERCKP`, a `u32` format version, a `u32` length
-//! and that many bytes of JSON header (see [`Header`]), then per pixel row by row `f64` ×
-//! 3 sums, `u32` finite samples, `u32` samples taken, and last the `u64` XXH3 hash of
+//! and that many bytes of JSON header (see [`Header`]), then per pixel row by row its
+//! [`PixelSums`] ([`PIXEL_BYTES`]: `f64` × 3 radiance sums and × 3 sums of squares,
+//! `f32` × 3 albedo, × 3 normal and × 1 depth sums, `u32` finite samples, `u32` samples
+//! taken, `u32` flags with bit 0 "converged"), and last the `u64` XXH3 hash of
 //! everything before it, so a damaged or truncated file is refused.
 //!
 //! Version history: 1 (no accel, no algorithm version, a scene hash over `Debug` text,
-//! no sample range, FNV-1a); 2 (this one). Files of other versions are refused.
+//! no sample range, FNV-1a); 2 (radiance sums and counts only); 3 (this one: the render
+//! passes, squares for the variance, adaptive sampling's flag, a "complete" claim).
+//! Files of other versions are refused.
 
 use std::fs::File;
 use std::io::{BufReader, Read};
@@ -19,13 +23,14 @@ use glam::DVec3;
 use serde_json::{json, Map, Value};
 use xxhash_rust::xxh3::Xxh3;
 
-use super::Film;
+use super::{Film, PixelSums};
 use crate::io::{self, WriteError};
 
 const MAGIC: &[u8; 8] = b"EMBERCKP";
 /// The film file format this ember reads and writes.
-pub const FORMAT_VERSION: u32 = 2;
-const PIXEL_BYTES: usize = 3 * 8 + 4 + 4;
+pub const FORMAT_VERSION: u32 = 3;
+/// The bytes of one pixel's record.
+pub const PIXEL_BYTES: usize = 6 * 8 + 7 * 4 + 3 * 4;
 /// A header this long is surely not ours (it holds a few hundred bytes of settings).
 const MAX_HEADER_BYTES: u32 = 1 << 20;
 
@@ -45,8 +50,11 @@ pub struct Header {
     pub samples: Range<u32>,
     /// `(I, N)` for shard I of N, `None` for a checkpoint of a whole render.
     pub shard: Option<(u32, u32)>,
-    /// Fewest samples any pixel has (`samples.len()` when the film is complete).
+    /// Fewest samples any pixel has (`samples.len()` when the film is complete without
+    /// adaptive sampling).
     pub min_done: u32,
+    /// Whether every pixel has all its samples or was stopped by adaptive sampling.
+    pub complete: bool,
 }
 
 impl Header {
@@ -103,6 +111,7 @@ fn header_json(header: &Header) -> String {
         "samples": [header.samples.start, header.samples.end],
         "shard": header.shard.map(|(i, n)| [i, n]),
         "min_done": header.min_done,
+        "complete": header.complete,
     })
     .to_string()
 }
@@ -114,24 +123,64 @@ pub fn encode(header: &Header, film: &Film) -> Vec<u8> {
         height: film.height,
         samples: film.samples.clone(),
         min_done: film.min_done(),
+        complete: film.is_complete(),
         ..header.clone()
     };
     let json = header_json(&header);
-    let mut out = Vec::with_capacity(24 + json.len() + film.done.len() * PIXEL_BYTES);
+    let mut out = Vec::with_capacity(24 + json.len() + film.pixels.len() * PIXEL_BYTES);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(json.as_bytes());
-    for ((s, k), d) in film.sums.iter().zip(&film.kept).zip(&film.done) {
-        for c in s.to_array() {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-        out.extend_from_slice(&k.to_le_bytes());
-        out.extend_from_slice(&d.to_le_bytes());
+    for p in &film.pixels {
+        encode_pixel(p, &mut out);
     }
     let hash = xxhash_rust::xxh3::xxh3_64(&out);
     out.extend_from_slice(&hash.to_le_bytes());
     out
+}
+
+fn encode_pixel(p: &PixelSums, out: &mut Vec<u8>) {
+    for c in p
+        .radiance
+        .to_array()
+        .into_iter()
+        .chain(p.radiance_sq.to_array())
+    {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    let floats = p.albedo.to_array().into_iter().chain(p.normal.to_array());
+    for c in floats.chain([p.depth]) {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    for w in [p.kept, p.done, u32::from(p.converged)] {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
+}
+
+/// One pixel's record, or `None` where its values cannot be a film's: non-finite or
+/// negative sums, more kept than taken samples, unknown flags.
+fn decode_pixel(px: &[u8]) -> Option<PixelSums> {
+    let f64_at = |k: usize| f64::from_le_bytes(px[8 * k..8 * k + 8].try_into().expect("8"));
+    let f32_at = |k: usize| f32::from_le_bytes(px[48 + 4 * k..52 + 4 * k].try_into().expect("4"));
+    let u32_at = |k: usize| u32::from_le_bytes(px[76 + 4 * k..80 + 4 * k].try_into().expect("4"));
+    let p = PixelSums {
+        radiance: DVec3::new(f64_at(0), f64_at(1), f64_at(2)),
+        radiance_sq: DVec3::new(f64_at(3), f64_at(4), f64_at(5)),
+        albedo: glam::Vec3::new(f32_at(0), f32_at(1), f32_at(2)),
+        normal: glam::Vec3::new(f32_at(3), f32_at(4), f32_at(5)),
+        depth: f32_at(6),
+        kept: u32_at(0),
+        done: u32_at(1),
+        converged: u32_at(2) == 1,
+    };
+    let finite = p.radiance.is_finite()
+        && p.radiance_sq.is_finite()
+        && p.albedo.is_finite()
+        && p.normal.is_finite()
+        && p.depth.is_finite();
+    (finite && p.radiance_sq.min_element() >= 0.0 && p.kept <= p.done && u32_at(2) <= 1)
+        .then_some(p)
 }
 
 /// Writes a film file atomically: the file is the old one or the whole new one.
@@ -212,11 +261,11 @@ impl FilmReader {
         }
     }
 
-    /// Calls `add(i, sum, kept, done)` for every pixel in order, then checks the hash:
-    /// on an error, what `add` received must be thrown away.
+    /// Calls `add(i, pixel)` for every pixel in order, then checks the hash: on an
+    /// error, what `add` received must be thrown away.
     pub fn read_pixels(
         mut self,
-        mut add: impl FnMut(usize, DVec3, u32, u32),
+        mut add: impl FnMut(usize, &PixelSums),
     ) -> Result<(), CheckpointError> {
         let pixels = self.header.width as usize * self.header.height as usize;
         let range_len = self.header.samples.len() as u32;
@@ -230,13 +279,10 @@ impl FilmReader {
                 .map_err(|_| self.invalid("too short (truncated)"))?;
             self.hasher.update(bytes);
             for px in bytes.chunks_exact(PIXEL_BYTES) {
-                let f = |k: usize| f64::from_le_bytes(px[8 * k..8 * k + 8].try_into().expect("8"));
-                let u = |at: usize| u32::from_le_bytes(px[at..at + 4].try_into().expect("4"));
-                let (sum, kept, done) = (DVec3::new(f(0), f(1), f(2)), u(24), u(28));
-                if kept > done || done > range_len || !sum.is_finite() {
-                    return Err(self.invalid(&format!("inconsistent data at pixel {i}")));
+                match decode_pixel(px) {
+                    Some(p) if p.done <= range_len => add(i, &p),
+                    _ => return Err(self.invalid(&format!("inconsistent data at pixel {i}"))),
                 }
-                add(i, sum, kept, done);
                 i += 1;
             }
         }
@@ -254,13 +300,9 @@ impl FilmReader {
     pub fn read_film(self) -> Result<Film, CheckpointError> {
         let h = &self.header;
         let mut film = Film::new(h.width, h.height, h.samples.clone());
-        let (path, min_done) = (self.path.clone(), h.min_done);
-        self.read_pixels(|i, sum, kept, done| {
-            film.sums[i] = sum;
-            film.kept[i] = kept;
-            film.done[i] = done;
-        })?;
-        if film.min_done() != min_done {
+        let (path, min_done, complete) = (self.path.clone(), h.min_done, h.complete);
+        self.read_pixels(|i, p| film.pixels[i] = *p)?;
+        if film.min_done() != min_done || film.is_complete() != complete {
             return Err(CheckpointError::Invalid {
                 path,
                 reason: "the header's sample count disagrees with the pixels".into(),
@@ -307,6 +349,10 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
         samples: start..end,
         shard: pair("shard")?,
         min_done: uint("min_done")?,
+        complete: v
+            .get("complete")
+            .and_then(Value::as_bool)
+            .ok_or("header lacks complete")?,
     };
     if start > end || end > header.spp || header.min_done > end - start {
         return Err("inconsistent sample range".into());
@@ -352,7 +398,7 @@ pub fn load(
             ours: samples,
         });
     }
-    let most = film.done.iter().copied().max().unwrap_or(0);
+    let most = film.pixels.iter().map(|p| p.done).max().unwrap_or(0);
     if most > samples.len() as u32 {
         return Err(CheckpointError::PastTarget {
             path: path.to_owned(),
