@@ -191,6 +191,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
             max_depth: 8,
             seed,
             integrator: IntegratorKind::Mis,
+            adaptive: None,
         };
         render(&loaded.scene, &loaded.accel, &camera, &settings, &|_| {}).0
     };

@@ -278,16 +278,11 @@ impl RenderPlan {
     fn check(&self) -> Result<()> {
         if self.shard.is_some() {
             ember::io::check_writable(&self.output)?;
-        } else {
-            image::check_output(&self.output)?;
-            let exr = image::OutputFormat::from_path(&self.output)? == image::OutputFormat::Exr;
-            if !self.aovs.is_empty() && !exr {
-                bail!(
-                    "--aov needs an .exr output, which holds the passes as layers beside the \
-                     image; {} holds one image",
-                    self.output.display()
-                );
+            if self.denoise || !self.aovs.is_empty() {
+                bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
             }
+        } else {
+            check_image_output(&self.output, &self.aovs, self.denoise)?;
         }
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
@@ -349,7 +344,25 @@ fn parse_threshold(s: &str) -> Result<f32, String> {
     }
 }
 
-fn parse_aov(s: &str) -> Result<Aov, String> {
+/// Refuses, before any work, an image output that cannot be written or cannot hold
+/// what is asked of it, and `--denoise` in an ember that cannot denoise.
+pub fn check_image_output(output: &Path, aovs: &[Aov], denoise: bool) -> Result<()> {
+    image::check_output(output)?;
+    let exr = image::OutputFormat::from_path(output)? == image::OutputFormat::Exr;
+    if !aovs.is_empty() && !exr {
+        bail!(
+            "--aov needs an .exr output, which holds the passes as layers beside the image; \
+             {} holds one image",
+            output.display()
+        );
+    }
+    if denoise {
+        ember::denoise::available()?;
+    }
+    Ok(())
+}
+
+pub fn parse_aov(s: &str) -> Result<Aov, String> {
     Aov::from_name(s.trim()).ok_or_else(|| {
         let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
         format!("unknown pass {s:?}: choose from {}", names.join(", "))
@@ -531,9 +544,6 @@ fn finish_render<A: Accel>(
 /// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
 /// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
 fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
-    if plan.denoise {
-        bail!("--denoise is being wired in");
-    }
     let output = FilmOutput {
         aovs: &plan.aovs,
         denoise: plan.denoise,

@@ -5,6 +5,7 @@ use std::path::Path;
 
 use super::aov::Aov;
 use super::Film;
+use crate::denoise::{self, DenoiseError};
 use crate::image::layers::{names, Layer, LayeredImage};
 use crate::image::{Image, ImageFileError, OutputFormat, Tonemap};
 
@@ -22,13 +23,21 @@ pub struct FilmOutput<'a> {
 pub enum OutputError {
     #[error(transparent)]
     File(#[from] ImageFileError),
+    #[error(transparent)]
+    Denoise(#[from] DenoiseError),
 }
 
 impl FilmOutput<'_> {
     /// Writes `film` to `path` (atomically, as every output).
     pub fn write(&self, film: &Film, path: &Path) -> Result<(), OutputError> {
         let noisy = film.resolve();
-        let image: Option<Image> = None;
+        let image = if self.denoise {
+            let albedo = pass_image(film, Aov::Albedo);
+            let normal = pass_image(film, Aov::Normal);
+            Some(denoise::denoise(&noisy, Some((&albedo, &normal)))?)
+        } else {
+            None
+        };
         let main = image.as_ref().unwrap_or(&noisy);
         if OutputFormat::from_path(path)? != OutputFormat::Exr
             || (self.aovs.is_empty() && image.is_none())
