@@ -178,3 +178,56 @@ fn adaptive_sampling_converges_to_the_reference_and_beats_uniform_sampling_at_eq
         "mean {ma} against {mr}"
     );
 }
+
+/// Adaptive shards: each shard of N adapts on its own samples to the threshold T·√N
+/// (its share of the samples), so that their merge reaches about T; every shard is
+/// complete when its pixels have all their samples or converged, and they merge.
+#[test]
+fn adaptive_shards_merge_into_one_image_with_the_samples_of_both() {
+    let ember = env!("CARGO_BIN_EXE_ember");
+    let dir = tempfile::tempdir().unwrap();
+    let scene = repo("meshes/CornellBox-Original.obj");
+    let common = [
+        "--width",
+        "32",
+        "--height",
+        "32",
+        "--spp",
+        "128",
+        "--noise-threshold",
+        "0.1",
+    ];
+    let mut shards = Vec::new();
+    for i in 0..2 {
+        let shard = dir.path().join(format!("{i}.shard"));
+        let out = std::process::Command::new(ember)
+            .arg("render")
+            .arg(&scene)
+            .args(common)
+            .args(["--shard", &format!("{i}/2"), "-o"])
+            .arg(&shard)
+            .output()
+            .unwrap();
+        let log = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success() && log.contains("converged"), "{log}");
+        shards.push(shard);
+    }
+    let merged = dir.path().join("m.exr");
+    let out = std::process::Command::new(ember)
+        .arg("merge")
+        .args(&shards)
+        .args(["--aov", "spp", "-o"])
+        .arg(&merged)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let layers = ember::image::layers::LayeredImage::read_exr(&merged).unwrap();
+    let spp = &layers.layer("spp").unwrap().data;
+    // Each shard took at least --min-spp (32) of its 64 samples in every pixel.
+    assert!(spp.iter().all(|&n| (64.0..=128.0).contains(&n)), "{spp:?}");
+    assert!(spp.iter().any(|&n| n < 128.0), "some pixels converged");
+}
