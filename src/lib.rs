@@ -18,6 +18,7 @@ pub mod denoise;
 #[allow(unsafe_code)]
 pub mod embree;
 pub mod film;
+pub mod guiding;
 pub mod geometry;
 pub mod image;
 pub mod integrator;

@@ -65,6 +65,7 @@ fn film_of(built: &Built, samples: std::ops::Range<u32>, seed: u64, max_depth: u
         seed,
         integrator: IntegratorKind::Mis,
         adaptive: None,
+        guiding: None,
     };
     let stop = AtomicUsize::new(0);
     let control = RenderControl {

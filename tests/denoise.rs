@@ -192,6 +192,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
             seed,
             integrator: IntegratorKind::Mis,
             adaptive: None,
+            guiding: None,
         };
         render(&loaded.scene, &loaded.accel, &camera, &settings, &|_| {}).0
     };

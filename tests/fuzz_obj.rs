@@ -266,6 +266,7 @@ fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
         seed: 1,
         integrator: IntegratorKind::Bsdf,
         adaptive: None,
+        guiding: None,
     };
     let (film, _) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(film.pixels.iter().all(|p| p.is_finite()));

@@ -44,6 +44,7 @@ fn fixture() -> Fixture {
         seed: 11,
         integrator: IntegratorKind::Bsdf,
         adaptive: None,
+        guiding: None,
     };
     Fixture {
         camera: camera_settings.camera(settings.width, settings.height),

@@ -413,6 +413,7 @@ fn a_killed_render_leaves_a_whole_checkpoint() {
         seed: 5,
         integrator: IntegratorKind::default(),
         adaptive: None,
+        guiding: None,
     };
     let camera = CameraSettings::framing(lo, hi, 40.0);
     let identity = ember::render::identity(&scene, &camera, &settings, AccelKind::Embree);

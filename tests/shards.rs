@@ -121,6 +121,7 @@ fn merged_films_equal_one_process_at_any_number_of_shards() {
         seed: 4,
         integrator: IntegratorKind::Mis,
         adaptive: None,
+        guiding: None,
     };
     let camera = CameraSettings::framing(lo, hi, 40.0).camera(settings.width, settings.height);
     let stop = std::sync::atomic::AtomicUsize::new(0);

@@ -22,6 +22,8 @@ use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
+use ember::guiding::Guiding;
+use ember::integrator::IntegratorKind;
 use ember::image::{self, Tonemap};
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
@@ -112,6 +114,14 @@ pub struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     integrator: IntegratorArg,
+    /// Path guiding (Müller et al. 2017, with --integrator mis): an SD-tree of the
+    /// incident light, trained before rendering (2^N − 1 spp over
+    /// --guiding-iterations N), guides half of the BSDF samples.
+    #[arg(long)]
+    guiding: bool,
+    /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
+    #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=12))]
+    guiding_iterations: u32,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
@@ -247,6 +257,9 @@ impl RenderPlan {
                 seed: args.seed,
                 integrator: args.integrator.into(),
                 adaptive,
+                guiding: args.guiding.then_some(Guiding {
+                    iterations: args.guiding_iterations,
+                }),
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -286,6 +299,9 @@ impl RenderPlan {
         }
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
+        if self.settings.guiding.is_some() && self.settings.integrator != IntegratorKind::Mis {
+            bail!("--guiding guides the mis integrator only: drop --integrator or --guiding");
+        }
         if self.background.is_some_and(|b| b.min_element() < 0.0) {
             bail!("--background must not be negative");
         }
@@ -680,8 +696,18 @@ fn report_finished(
     } else {
         format!("{} spp", s.spp)
     };
+    let guiding = stats.guiding.map_or(String::new(), |g| {
+        format!(
+            ", guiding trained in {:.2} s ({} samples; {} leaves, {} nodes, {})",
+            g.seconds,
+            g.training_samples,
+            g.leaves,
+            g.nodes,
+            ember::limits::human_bytes(g.memory_bytes as u64)
+        )
+    });
     eprintln!(
-        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
+        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{guiding}{dropped}{peak}",
         plan.output.display(),
         s.width,
         s.height,

@@ -23,6 +23,11 @@
 //! PDF": a path that only ever goes towards lights has density 0 for every other
 //! direction, so it cannot converge to global illumination (only to direct light).
 //!
+//! With a guide ([`PathTracer::guide`], `mis` only), the BSDF sample at non-delta
+//! vertices becomes a one-sample mixture of the BSDF's and the guide's sampling, and
+//! the mixture's density takes the BSDF's place in the path weight and in both MIS
+//! weights (see [`crate::guiding`]).
+//!
 //! At delta vertices (mirrors, smooth glass) every estimator follows the BSDF's sample,
 //! and the emission found next counts in full. Russian roulette may end any path from
 //! vertex [`ROULETTE_START_VERTEX`] on.
@@ -32,6 +37,7 @@ use glam::{Vec2, Vec3};
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
+use crate::guiding::{mixture_pdf, NoRecords, PathRecorder, QuadTree, SdTree, GUIDE_PROBABILITY};
 use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -78,6 +84,8 @@ pub struct PathTracer<'a, A: Accel> {
     pub kind: IntegratorKind,
     /// The distribution over the scene's emitters, built once per render.
     pub lights: LightSampler,
+    /// The learnt distribution of incident light that guides `mis` (none: unguided).
+    pub guide: Option<&'a SdTree>,
 }
 
 /// How emission met by the next ray counts, decided where that ray was chosen.
@@ -87,7 +95,8 @@ enum EmissionWeight {
     Full,
     /// Not at all: the light sample at the previous vertex already counted it.
     Skip,
-    /// MIS weight of a BSDF sample drawn with this density against light sampling.
+    /// MIS weight of a BSDF sample drawn with this density against light sampling
+    /// (with a guide, the density of the BSDF–guide mixture that drew it).
     Mis { bsdf_pdf: f32 },
 }
 
@@ -147,7 +156,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             kind,
             lights: LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
                 .with_sky(scene.sky.clone(), scene.bounding_radius()),
+            guide: None,
         }
+    }
+
+    /// The same tracer guided by `guide` (used by `mis` only).
+    pub fn with_guide(self, guide: Option<&'a SdTree>) -> Self {
+        PathTracer { guide, ..self }
     }
 
     #[inline]
@@ -166,7 +181,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// the render passes of its path: albedo and shading normal at the first vertex
     /// whose BSDF is not a delta (mirrors and glass are seen through, as Open Image
     /// Denoise asks), and the distance to the first hit.
-    pub fn sample(&self, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
+    pub fn sample(&self, ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
+        self.sample_recorded(ray, rng, count, &mut NoRecords)
+    }
+
+    /// [`sample`](Self::sample), telling `recorder` what the path finds at each vertex
+    /// (the training of a guide).
+    pub fn sample_recorded<R: PathRecorder>(
+        &self,
+        mut ray: Ray,
+        rng: &mut Rng,
+        count: &mut RayCount,
+        recorder: &mut R,
+    ) -> Sample {
         let mut out = Sample::default();
         let mut passes_found = false;
         let mut radiance = Vec3::ZERO;
@@ -179,7 +206,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         out.depth = hit.map_or(0.0, |h| h.t);
         for segment in 1..=self.max_depth {
             let Some(current) = hit else {
-                radiance += throughput * self.sky(ray.dir, emission_weight);
+                let sky = throughput * self.sky(ray.dir, emission_weight);
+                radiance += sky;
+                recorder.added(sky);
                 if !passes_found {
                     out.albedo = self
                         .scene
@@ -190,7 +219,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
             rng.start_vertex(segment);
             let surface = self.scene.surface(&current);
-            radiance += throughput * self.emission(&surface, &current, ray.dir, emission_weight);
+            let emitted = throughput * self.emission(&surface, &current, ray.dir, emission_weight);
+            radiance += emitted;
+            recorder.added(emitted);
             let wo = -ray.dir;
             if segment == self.max_depth {
                 if !passes_found {
@@ -207,8 +238,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let next_event = !bsdf.is_delta()
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
+            let guide = match self.guide {
+                Some(tree) if mis && !bsdf.is_delta() => Some(tree.at(surface.p)),
+                _ => None,
+            };
             if next_event {
-                radiance += throughput * self.direct_light(&surface, &bsdf, wo, mis, rng, count);
+                let light = self.direct_light(&surface, &bsdf, wo, (mis, guide), rng, recorder, count);
+                let light = throughput * light;
+                radiance += light;
+                recorder.added(light);
                 if last_vertex {
                     break;
                 }
@@ -228,10 +266,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 _ if bsdf.is_delta() => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
                 IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
                 IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
-                IntegratorKind::Mis => {
-                    let pending = EmissionWeight::Mis { bsdf_pdf: 0.0 };
-                    self.bsdf_step(&bsdf, wo, pending, rng)
-                }
+                IntegratorKind::Mis => match guide {
+                    Some(guide) => self.guided_step(&bsdf, wo, guide, rng),
+                    None => {
+                        let pending = EmissionWeight::Mis { bsdf_pdf: 0.0 };
+                        self.bsdf_step(&bsdf, wo, pending, rng)
+                    }
+                },
                 IntegratorKind::Mixture => self.mixture_step(&surface, &bsdf, wo, rng, count),
             };
             let Some(step) = step else {
@@ -240,6 +281,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             throughput *= step.weight;
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
+            if let EmissionWeight::Mis { bsdf_pdf } = step.emission {
+                recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput);
+            }
             if throughput == Vec3::ZERO {
                 break;
             }
@@ -249,6 +293,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 None => self.trace(&ray, count),
             };
         }
+        recorder.finish();
         out.radiance = radiance;
         out
     }
@@ -306,14 +351,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 
     /// Next-event estimation: radiance scattered towards `wo` from one light sample,
     /// `f·cos · Le / pdf` if the shadow ray is clear, times the power-heuristic weight
-    /// against BSDF sampling when `mis`.
-    fn direct_light(
+    /// against BSDF sampling when `mis` (against the BSDF–guide mixture with a guide).
+    #[allow(clippy::too_many_arguments)]
+    fn direct_light<R: PathRecorder>(
         &self,
         surface: &SurfacePoint,
         bsdf: &Bsdf,
         wo: Vec3,
-        mis: bool,
+        (mis, guide): (bool, Option<&QuadTree>),
         rng: &mut Rng,
+        recorder: &mut R,
         count: &mut RayCount,
     ) -> Vec3 {
         if !self.lights.may_light(surface.p) {
@@ -334,12 +381,44 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if self.accel.occluded(&shadow) {
             return Vec3::ZERO;
         }
-        let weight = if mis {
-            power_heuristic(light.pdf, bsdf_pdf)
-        } else {
-            1.0
+        let weight = match (mis, guide) {
+            (false, _) => 1.0,
+            (true, None) => power_heuristic(light.pdf, bsdf_pdf),
+            (true, Some(guide)) => {
+                power_heuristic(light.pdf, mixture_pdf(bsdf_pdf, guide.pdf(light.dir)))
+            }
         };
-        f * light.emission * (weight / light.pdf)
+        let incident = light.emission * (weight / light.pdf);
+        recorder.light_sample(surface.p, light.dir, incident);
+        f * incident
+    }
+
+    /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the
+    /// guide (probability [`GUIDE_PROBABILITY`]), weighted by `f·cos` over the
+    /// mixture's density, which the next emission's MIS weight uses too.
+    #[inline]
+    fn guided_step(&self, bsdf: &Bsdf, wo: Vec3, guide: &QuadTree, rng: &mut Rng) -> Option<Step> {
+        let from_guide = rng.f32() < GUIDE_PROBABILITY;
+        let (u1, u2) = rng.pair();
+        let (wi, value, bsdf_pdf) = if from_guide {
+            let wi = guide.sample(Vec2::new(u1, u2));
+            let (value, pdf) = bsdf.eval_pdf(wo, wi);
+            (wi, value, pdf)
+        } else {
+            let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
+            (sample.wi, sample.value, sample.pdf)
+        };
+        let pdf = mixture_pdf(bsdf_pdf, guide.pdf(wi));
+        if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
+            return None;
+        }
+        Some(Step {
+            dir: wi,
+            weight: value / pdf,
+            emission: EmissionWeight::Mis { bsdf_pdf: pdf },
+            eta: 1.0,
+            traced: None,
+        })
     }
 
     /// The book's mixture step: a direction from `0.5 · bsdf + 0.5 · light`, traced

@@ -58,6 +58,17 @@ pub fn identity(
         ("scene", format!("{:016x}", scene_hash(scene))),
     ]
     .into_iter()
+    // Only guided renders name their guide, so that unguided checkpoints and shards
+    // made before guiding existed keep their identity.
+    .chain(settings.guiding.map(|g| {
+        (
+            "guiding",
+            format!(
+                "sd-tree, {} iterations, training seed from the render's",
+                g.iterations
+            ),
+        )
+    }))
     .map(|(k, v)| (k.to_owned(), v))
     .collect()
 }

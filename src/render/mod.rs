@@ -9,9 +9,11 @@
 
 pub mod adaptive;
 mod identity;
+mod training;
 
 pub use adaptive::Adaptive;
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
+pub use training::train_guide;
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex};
@@ -21,6 +23,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmTile, Sample};
+use crate::guiding::{Guiding, GuidingStats};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
 use crate::sampling::Rng;
@@ -39,6 +42,8 @@ pub struct RenderSettings {
     pub integrator: IntegratorKind,
     /// Adaptive sampling; `None` renders every pixel to `spp`.
     pub adaptive: Option<Adaptive>,
+    /// Path guiding (`mis` only), trained before rendering; `None`: unguided.
+    pub guiding: Option<Guiding>,
 }
 
 /// What a render cost.
@@ -49,6 +54,8 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples whose estimate was NaN or infinite, left out of their pixel's mean.
     pub dropped_samples: u64,
+    /// The guide's training (included in `seconds`, not in `samples` or `rays`).
+    pub guiding: Option<GuidingStats>,
 }
 
 impl RenderStats {
@@ -180,6 +187,16 @@ pub fn render_progressive<A: Accel>(
     );
     let start = Instant::now();
     let tracer = PathTracer::new(scene, accel, settings.max_depth, settings.integrator);
+    let trained = match settings.guiding {
+        Some(guiding) if settings.integrator == IntegratorKind::Mis => {
+            match train_guide(&tracer, camera, settings, guiding, control.stop) {
+                Some(trained) => Some(trained),
+                None => return (film, RenderStats::default()),
+            }
+        }
+        _ => None,
+    };
+    let tracer = tracer.with_guide(trained.as_ref().map(|t| &t.0));
     let before = film.total_done();
     let tiles: Vec<Mutex<FilmTile>> = film.tiles(TILE_SIZE).into_iter().map(Mutex::new).collect();
     let passes = Passes {
@@ -217,6 +234,7 @@ pub fn render_progressive<A: Accel>(
         samples: film.total_done() - before,
         rays,
         dropped_samples: dropped,
+        guiding: trained.map(|t| t.1),
     };
     (film, stats)
 }
@@ -393,10 +411,23 @@ pub fn pixel_sample<A: Accel>(
     sample: u32,
     count: &mut RayCount,
 ) -> Sample {
+    let (ray, mut rng) = camera_ray(camera, seed, (x, y), pixel, sample);
+    tracer.sample(ray, &mut rng, count)
+}
+
+/// The camera ray of sample `sample` of pixel `(x, y)` and the random stream its path
+/// goes on with.
+#[inline]
+fn camera_ray(
+    camera: &Camera,
+    seed: u64,
+    (x, y): (u32, u32),
+    pixel: u64,
+    sample: u32,
+) -> (crate::accel::Ray, Rng) {
     let mut rng = Rng::for_pixel_sample(seed, pixel, u64::from(sample));
     let (dx, dy) = rng.pair();
-    let ray = camera.ray(x as f32 + dx, y as f32 + dy);
-    tracer.sample(ray, &mut rng, count)
+    (camera.ray(x as f32 + dx, y as f32 + dy), rng)
 }
 
 impl<A: Accel> Passes<'_, A> {

@@ -1,0 +1,320 @@
+//! The directional half of an SD-tree: a quadtree over the unit square of the
+//! cylindrical coordinates `(u, v) = ((cos θ + 1) / 2, φ / 2π)` of world directions.
+//!
+//! The map from the square to the sphere is area-preserving (Archimedes: a band of
+//! `cos θ` of width `dz` has area `2π dz`), with Jacobian `4π` everywhere, so a density
+//! `p(u, v)` on the square is `p / 4π` per steradian and no cell needs a correction.
+//!
+//! Each node holds the energy (the sum of deposits) of its four quadrants, so the
+//! tree is at once a histogram for sampling (descend, choosing quadrants by energy,
+//! uniform within the leaf) and its density (the product of `4 · share` on the way
+//! down). An empty tree is the uniform distribution.
+
+use std::f32::consts::{FRAC_1_PI, PI};
+
+use glam::{Vec2, Vec3};
+
+/// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
+/// `2^-20` of the square's side, where `f32` sampling coordinates still resolve them.
+pub const MAX_QUAD_DEPTH: u32 = 20;
+
+/// A quadrant is subdivided when it holds more than this share of the tree's energy
+/// (Müller et al.'s ρ = 0.01). At most `1/ρ` quadrants per level can, so a tree has at
+/// most `1 + MAX_QUAD_DEPTH / ρ` nodes (2001): see [`max_nodes`](QuadTree::max_nodes).
+pub const SUBDIVISION_SHARE: f64 = 0.01;
+
+/// One node: the energies of its four quadrants (`x ≥ ½` is bit 0, `y ≥ ½` bit 1) and
+/// their children (0: the quadrant is a leaf; the root, node 0, is nobody's child).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct QuadNode {
+    energy: [f64; 4],
+    child: [u32; 4],
+}
+
+const EMPTY_NODE: QuadNode = QuadNode {
+    energy: [0.0; 4],
+    child: [0; 4],
+};
+
+/// A directional distribution over the sphere (see the module notes).
+#[derive(Clone, Debug, PartialEq)]
+pub struct QuadTree {
+    nodes: Vec<QuadNode>,
+}
+
+impl Default for QuadTree {
+    fn default() -> Self {
+        QuadTree::uniform()
+    }
+}
+
+/// The quadrant of `p` (in a node's unit square) and `p` in that quadrant's square.
+#[inline]
+fn quadrant(p: Vec2) -> (usize, Vec2) {
+    let (right, top) = (p.x >= 0.5, p.y >= 0.5);
+    let q = usize::from(right) | usize::from(top) << 1;
+    let local = Vec2::new(
+        if right { p.x - 0.5 } else { p.x },
+        if top { p.y - 0.5 } else { p.y },
+    ) * 2.0;
+    (q, local.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)))
+}
+
+const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
+/// The probability of the first of two parts with energies `a` and `b` (even when
+/// both are empty, which only rounding could lead to).
+#[inline]
+fn share(a: f64, b: f64) -> f32 {
+    if a + b > 0.0 {
+        (a / (a + b)) as f32
+    } else {
+        0.5
+    }
+}
+
+/// The square's coordinates of a unit direction.
+#[inline]
+pub fn direction_to_square(d: Vec3) -> Vec2 {
+    let u = ((d.z + 1.0) * 0.5).clamp(0.0, ONE_BELOW);
+    let phi = d.y.atan2(d.x);
+    let v = (phi * (0.5 * FRAC_1_PI)).rem_euclid(1.0).min(ONE_BELOW);
+    Vec2::new(u, v)
+}
+
+/// The unit direction at square coordinates `p`.
+#[inline]
+pub fn square_to_direction(p: Vec2) -> Vec3 {
+    let z = (2.0 * p.x - 1.0).clamp(-1.0, 1.0);
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let (s, c) = (2.0 * PI * p.y).sin_cos();
+    Vec3::new(r * c, r * s, z)
+}
+
+impl QuadTree {
+    /// The uniform distribution: one node, no energy.
+    pub fn uniform() -> Self {
+        QuadTree {
+            nodes: vec![EMPTY_NODE],
+        }
+    }
+
+    /// The most nodes a tree refined by [`refined`](Self::refined) can have.
+    pub const fn max_nodes() -> usize {
+        1 + (MAX_QUAD_DEPTH as f64 / SUBDIVISION_SHARE) as usize
+    }
+
+    pub fn node_count(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// Bytes the tree holds.
+    pub fn memory_bytes(&self) -> usize {
+        self.nodes.capacity() * std::mem::size_of::<QuadNode>()
+    }
+
+    /// The sum of all deposits.
+    pub fn energy(&self) -> f64 {
+        self.nodes[0].energy.iter().sum()
+    }
+
+    /// Adds `value` to the energy of every cell containing `d` (a unit direction).
+    pub fn deposit(&mut self, d: Vec3, value: f64) {
+        let mut p = direction_to_square(d);
+        let mut node = 0usize;
+        loop {
+            let (q, local) = quadrant(p);
+            self.nodes[node].energy[q] += value;
+            match self.nodes[node].child[q] {
+                0 => return,
+                c => (node, p) = (c as usize, local),
+            }
+        }
+    }
+
+    /// Density per unit area of the square at `p`.
+    #[inline]
+    pub fn square_pdf(&self, mut p: Vec2) -> f32 {
+        let mut density = 1.0f64;
+        let mut node = 0usize;
+        loop {
+            let n = &self.nodes[node];
+            let total: f64 = n.energy.iter().sum();
+            let (q, local) = quadrant(p);
+            if total > 0.0 {
+                density *= 4.0 * n.energy[q] / total;
+            }
+            match n.child[q] {
+                0 => return density as f32,
+                _ if density == 0.0 => return 0.0,
+                c => (node, p) = (c as usize, local),
+            }
+        }
+    }
+
+    /// A point of the square drawn from the density, from two uniforms in `[0, 1)`:
+    /// each level chooses the column (`x`) by `u.x` and the row by `u.y`, and rescales
+    /// the uniform that chose into the part it fell in, so the draw stays stratified.
+    #[inline]
+    pub fn sample_square(&self, mut u: Vec2) -> Vec2 {
+        let (mut origin, mut size) = (Vec2::ZERO, 1.0f32);
+        let mut node = 0usize;
+        loop {
+            let e = self.nodes[node].energy;
+            let (right, top);
+            if e.iter().sum::<f64>() > 0.0 {
+                let (left_e, right_e) = (e[0] + e[2], e[1] + e[3]);
+                let p_left = share(left_e, right_e);
+                right = u.x >= p_left;
+                u.x = if right {
+                    (u.x - p_left) / (1.0 - p_left)
+                } else {
+                    u.x / p_left
+                };
+                let (bottom_e, top_e) = if right { (e[1], e[3]) } else { (e[0], e[2]) };
+                let p_bottom = share(bottom_e, top_e);
+                top = u.y >= p_bottom;
+                u.y = if top {
+                    (u.y - p_bottom) / (1.0 - p_bottom)
+                } else {
+                    u.y / p_bottom
+                };
+                u = u.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
+            } else {
+                // No energy below: uniform over this cell.
+                return (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
+            }
+            let q = usize::from(right) | usize::from(top) << 1;
+            size *= 0.5;
+            origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;
+            match self.nodes[node].child[q] {
+                0 => return (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)),
+                c => node = c as usize,
+            }
+        }
+    }
+
+    /// Density per steradian of the unit direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        self.square_pdf(direction_to_square(d)) * (0.25 * FRAC_1_PI)
+    }
+
+    /// A unit direction drawn from the density (see [`sample_square`](Self::sample_square)).
+    #[inline]
+    pub fn sample(&self, u: Vec2) -> Vec3 {
+        square_to_direction(self.sample_square(u))
+    }
+
+    /// The same cells with no energy: where the next iteration's deposits go.
+    pub fn cleared(&self) -> QuadTree {
+        let mut tree = self.clone();
+        for n in &mut tree.nodes {
+            n.energy = [0.0; 4];
+        }
+        tree
+    }
+
+    /// A new tree over this one's energy: a quadrant holding more than
+    /// [`SUBDIVISION_SHARE`] of the total is subdivided (its children taking this
+    /// tree's energies where it has them, a quarter each otherwise), the others are
+    /// leaves. An empty tree stays uniform. Built depth-first in quadrant order, so the
+    /// result is a function of the energies alone.
+    pub fn refined(&self) -> QuadTree {
+        let total = self.energy();
+        if total <= 0.0 || !total.is_finite() {
+            return QuadTree::uniform();
+        }
+        let mut out = QuadTree {
+            nodes: vec![QuadNode {
+                energy: self.nodes[0].energy,
+                child: [0; 4],
+            }],
+        };
+        // (node in `out`, node in `self` or none, depth of `out`'s node)
+        let mut stack = vec![(0usize, Some(0usize), 1u32)];
+        while let Some((new, old, depth)) = stack.pop() {
+            for q in 0..4 {
+                let e = out.nodes[new].energy[q];
+                if depth >= MAX_QUAD_DEPTH || e <= total * SUBDIVISION_SHARE {
+                    continue;
+                }
+                let old_child = old
+                    .map(|o| self.nodes[o].child[q])
+                    .filter(|&c| c != 0)
+                    .map(|c| c as usize);
+                let energy = match old_child {
+                    Some(c) => self.nodes[c].energy,
+                    None => [e / 4.0; 4],
+                };
+                let index = out.nodes.len();
+                out.nodes.push(QuadNode {
+                    energy,
+                    child: [0; 4],
+                });
+                out.nodes[new].child[q] = index as u32;
+                stack.push((index, old_child, depth + 1));
+            }
+        }
+        out
+    }
+}
+
+/// Cosine-weighted mass of the sphere cap of half-angle `half_angle` around `axis`,
+/// for a surface whose normal is `normal`: used by tests; here because it is the
+/// comparison the guide is meant to win (`∫_cap max(0, cos) / π dω`, by quadrature).
+pub fn cosine_mass_in_cone(normal: Vec3, axis: Vec3, half_angle: f32) -> f64 {
+    mass_in_cone(&|d| normal.dot(d).max(0.0) * FRAC_1_PI, axis, half_angle)
+}
+
+/// `∫ density dω` over the cap of half-angle `half_angle` around the unit `axis`, by
+/// the midpoint rule on 256 × 256 points of (cos, φ) in the cap.
+pub fn mass_in_cone(density: &dyn Fn(Vec3) -> f32, axis: Vec3, half_angle: f32) -> f64 {
+    let (t, b) = axis.any_orthonormal_pair();
+    let n = 256;
+    let z_min = f64::from(half_angle.cos());
+    let (dz, dphi) = ((1.0 - z_min) / n as f64, 2.0 * std::f64::consts::PI / n as f64);
+    let mut sum = 0.0;
+    for i in 0..n {
+        let z = z_min + (i as f64 + 0.5) * dz;
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        for j in 0..n {
+            let phi = (j as f64 + 0.5) * dphi;
+            let local = (r * phi.cos(), r * phi.sin(), z);
+            let d = t * local.0 as f32 + b * local.1 as f32 + axis * local.2 as f32;
+            sum += f64::from(density(d.normalize()));
+        }
+    }
+    sum * dz * dphi
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn square_and_sphere_round_trip() {
+        for &(u, v) in &[(0.1f32, 0.2f32), (0.5, 0.5), (0.9, 0.99), (0.01, 0.7)] {
+            let d = square_to_direction(Vec2::new(u, v));
+            let p = direction_to_square(d);
+            assert!((p.x - u).abs() < 1e-5 && (p.y - v).abs() < 1e-5, "{u} {v} → {p}");
+        }
+    }
+
+    #[test]
+    fn refinement_follows_energy_and_keeps_it() {
+        let mut tree = QuadTree::uniform();
+        let d = Vec3::new(0.3, 0.4, 0.866).normalize();
+        for _ in 0..4 {
+            tree = tree.cleared();
+            tree.deposit(d, 1.0);
+            tree.deposit(-d, 1.0);
+            tree = tree.refined();
+        }
+        assert_eq!(tree.energy(), 2.0);
+        // Each spike's cell is refined to the depth limit, and its density grows.
+        assert!(tree.node_count() > 4 && tree.node_count() <= QuadTree::max_nodes());
+        assert!(tree.pdf(d) > 100.0 && tree.pdf(-d) > 100.0);
+        assert_eq!(tree.pdf(Vec3::X), 0.0);
+    }
+}

@@ -1,0 +1,123 @@
+//! What a training path leaves behind: for each non-delta vertex, the radiance that
+//! arrived along the direction it scattered into, and for each light sample, the
+//! radiance that arrived along the light's direction.
+
+use glam::Vec3;
+
+/// The most vertices of one path whose incident radiance is tracked; deeper ones are
+/// not recorded (the guide only needs some of them, and this keeps it allocation-free).
+const MAX_OPEN: usize = 32;
+
+/// One training record: at `p`, radiance arrived from the unit direction `dir`, and
+/// `value` is its estimate (mean over colour channels) over the density with which
+/// `dir` was drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Record {
+    pub p: Vec3,
+    pub dir: Vec3,
+    pub value: f32,
+}
+
+/// What the path tracer tells a recorder as a path unfolds.
+pub trait PathRecorder {
+    /// The path left the non-delta vertex `p` along `dir`, drawn with density `pdf`,
+    /// and its throughput is now `throughput`: what it adds from now on, divided by
+    /// that throughput, is the radiance that arrived along `dir`.
+    fn scattered(&mut self, p: Vec3, dir: Vec3, pdf: f32, throughput: Vec3);
+    /// The path's estimate grew by `contribution`.
+    fn added(&mut self, contribution: Vec3);
+    /// A light sample at `p` along `dir` found `incident_over_pdf` (radiance times its
+    /// MIS weight, over the light sample's density).
+    fn light_sample(&mut self, p: Vec3, dir: Vec3, incident_over_pdf: Vec3);
+    /// The path has ended.
+    fn finish(&mut self);
+}
+
+/// Records nothing (an ordinary render): every call compiles away.
+pub struct NoRecords;
+
+impl PathRecorder for NoRecords {
+    #[inline(always)]
+    fn scattered(&mut self, _: Vec3, _: Vec3, _: f32, _: Vec3) {}
+    #[inline(always)]
+    fn added(&mut self, _: Vec3) {}
+    #[inline(always)]
+    fn light_sample(&mut self, _: Vec3, _: Vec3, _: Vec3) {}
+    #[inline(always)]
+    fn finish(&mut self) {}
+}
+
+#[derive(Clone, Copy, Default)]
+struct Open {
+    p: Vec3,
+    dir: Vec3,
+    pdf: f32,
+    throughput: Vec3,
+    radiance: Vec3,
+}
+
+/// Records a path's vertices into `out` when it ends.
+pub struct PathRecords<'o> {
+    open: [Open; MAX_OPEN],
+    len: usize,
+    out: &'o mut Vec<Record>,
+}
+
+impl<'o> PathRecords<'o> {
+    pub fn new(out: &'o mut Vec<Record>) -> Self {
+        PathRecords {
+            open: [Open::default(); MAX_OPEN],
+            len: 0,
+            out,
+        }
+    }
+}
+
+fn mean(v: Vec3) -> f32 {
+    (v.x + v.y + v.z) / 3.0
+}
+
+impl PathRecorder for PathRecords<'_> {
+    fn scattered(&mut self, p: Vec3, dir: Vec3, pdf: f32, throughput: Vec3) {
+        if self.len < MAX_OPEN && pdf > 0.0 {
+            self.open[self.len] = Open {
+                p,
+                dir,
+                pdf,
+                throughput,
+                radiance: Vec3::ZERO,
+            };
+            self.len += 1;
+        }
+    }
+
+    fn added(&mut self, contribution: Vec3) {
+        for v in &mut self.open[..self.len] {
+            // Where a channel's throughput is 0, so is everything it adds.
+            let t = v.throughput;
+            let safe = Vec3::select(t.cmpgt(Vec3::ZERO), t, Vec3::ONE);
+            v.radiance += Vec3::select(t.cmpgt(Vec3::ZERO), contribution / safe, Vec3::ZERO);
+        }
+    }
+
+    fn light_sample(&mut self, p: Vec3, dir: Vec3, incident_over_pdf: Vec3) {
+        let value = mean(incident_over_pdf);
+        if value.is_finite() {
+            self.out.push(Record { p, dir, value });
+        }
+    }
+
+    fn finish(&mut self) {
+        for v in &self.open[..self.len] {
+            let value = mean(v.radiance) / v.pdf;
+            if value.is_finite() {
+                self.out.push(Record {
+                    p: v.p,
+                    dir: v.dir,
+                    value,
+                });
+            }
+        }
+        self.len = 0;
+    }
+}

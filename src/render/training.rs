@@ -1,0 +1,102 @@
+//! The training pre-pass of a guided render: Müller et al.'s doubling schedule over
+//! the whole image, with seeds of its own, so that the tree it ends with is a function
+//! of the scene and the settings only. A fresh render, a resumed one and every shard
+//! train the same tree before they render (the cost of resuming a guided render is
+//! training again, a fraction of the render, against storing the tree in every
+//! checkpoint and shard).
+
+use std::sync::atomic::AtomicUsize;
+use std::sync::atomic::Ordering;
+use std::time::Instant;
+
+use rayon::prelude::*;
+
+use super::{camera_ray, RenderSettings, TILE_SIZE};
+use crate::accel::Accel;
+use crate::film::tile_rects;
+use crate::guiding::{Guiding, GuidingStats, PathRecords, Record, SdTree};
+use crate::integrator::{PathTracer, RayCount};
+use crate::scene::Camera;
+
+/// Mixed into the render's seed so that training samples are not the render's.
+const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
+
+/// Tiles rendered before their records are folded into the tree: bounds the records
+/// held at once (a 16×16 tile at 16 spp and depth 8 holds about 1 MB of them).
+const TILES_PER_BATCH: usize = 64;
+
+/// Trains the guide of a render with `settings` (iterations `0..guiding.iterations`,
+/// iteration `k` at `2^k` samples per pixel, each guided by the tree before it).
+/// `None` when `stop` was set meanwhile.
+pub fn train_guide<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    guiding: Guiding,
+    stop: &AtomicUsize,
+) -> Option<(SdTree, GuidingStats)> {
+    let start = Instant::now();
+    let mut tree = SdTree::new(tracer.scene.bounds());
+    let rects = tile_rects(settings.width, settings.height, TILE_SIZE);
+    let seed = settings.seed ^ TRAINING_SEED;
+    let mut first_sample = 0u32;
+    let mut samples = 0u64;
+    for k in 0..guiding.iterations.min(20) {
+        let spp = 1u32 << k;
+        let guided = PathTracer {
+            guide: Some(&tree),
+            lights: tracer.lights.clone(),
+            ..*tracer
+        };
+        let mut filling = tree.cleared();
+        for batch in rects.chunks(TILES_PER_BATCH) {
+            let records: Vec<Vec<Record>> = batch
+                .par_iter()
+                .map(|&rect| train_tile(&guided, camera, settings, seed, rect, first_sample..first_sample + spp))
+                .collect();
+            if stop.load(Ordering::Relaxed) != 0 {
+                return None;
+            }
+            // In tile order, whichever worker rendered them: the sums are the same
+            // floating-point sums at any thread count.
+            for r in records.iter().flatten() {
+                filling.deposit(r.p, r.dir, f64::from(r.value));
+            }
+        }
+        samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
+        first_sample += spp;
+        tree = filling.refined(spp);
+    }
+    let stats = GuidingStats {
+        seconds: start.elapsed().as_secs_f64(),
+        training_samples: samples,
+        leaves: tree.leaf_count(),
+        nodes: tree.node_count(),
+        memory_bytes: tree.memory_bytes(),
+    };
+    Some((tree, stats))
+}
+
+/// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`.
+fn train_tile<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    seed: u64,
+    (x0, y0, w, h): (u32, u32, u32, u32),
+    samples: std::ops::Range<u32>,
+) -> Vec<Record> {
+    let mut out = Vec::new();
+    let mut count = RayCount::default();
+    for y in y0..y0 + h {
+        for x in x0..x0 + w {
+            let pixel = u64::from(y) * u64::from(settings.width) + u64::from(x);
+            for s in samples.clone() {
+                let (ray, mut rng) = camera_ray(camera, seed, (x, y), pixel, s);
+                let mut recorder = PathRecords::new(&mut out);
+                tracer.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
+            }
+        }
+    }
+    out
+}
