@@ -18,8 +18,8 @@ pub mod denoise;
 #[allow(unsafe_code)]
 pub mod embree;
 pub mod film;
-pub mod guiding;
 pub mod geometry;
+pub mod guiding;
 pub mod image;
 pub mod integrator;
 pub mod io;

@@ -39,6 +39,7 @@ fn settings(size: u32, spp: u32, adaptive: Option<Adaptive>) -> RenderSettings {
         seed: 5,
         integrator: IntegratorKind::Mis,
         adaptive,
+        guiding: None,
     }
 }
 

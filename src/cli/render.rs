@@ -23,8 +23,8 @@ use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::guiding::Guiding;
-use ember::integrator::IntegratorKind;
 use ember::image::{self, Tonemap};
+use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };

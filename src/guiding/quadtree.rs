@@ -108,6 +108,21 @@ impl QuadTree {
         self.nodes.len()
     }
 
+    /// Levels of the deepest cell (1: the root's quadrants are the leaves).
+    pub fn depth(&self) -> u32 {
+        let mut deepest = 0;
+        let mut stack = vec![(0usize, 1u32)];
+        while let Some((node, depth)) = stack.pop() {
+            deepest = deepest.max(depth);
+            for &c in &self.nodes[node].child {
+                if c != 0 {
+                    stack.push((c as usize, depth + 1));
+                }
+            }
+        }
+        deepest
+    }
+
     /// Bytes the tree holds.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<QuadNode>()
@@ -273,7 +288,10 @@ pub fn mass_in_cone(density: &dyn Fn(Vec3) -> f32, axis: Vec3, half_angle: f32) 
     let (t, b) = axis.any_orthonormal_pair();
     let n = 256;
     let z_min = f64::from(half_angle.cos());
-    let (dz, dphi) = ((1.0 - z_min) / n as f64, 2.0 * std::f64::consts::PI / n as f64);
+    let (dz, dphi) = (
+        (1.0 - z_min) / n as f64,
+        2.0 * std::f64::consts::PI / n as f64,
+    );
     let mut sum = 0.0;
     for i in 0..n {
         let z = z_min + (i as f64 + 0.5) * dz;
@@ -297,7 +315,10 @@ mod tests {
         for &(u, v) in &[(0.1f32, 0.2f32), (0.5, 0.5), (0.9, 0.99), (0.01, 0.7)] {
             let d = square_to_direction(Vec2::new(u, v));
             let p = direction_to_square(d);
-            assert!((p.x - u).abs() < 1e-5 && (p.y - v).abs() < 1e-5, "{u} {v} → {p}");
+            assert!(
+                (p.x - u).abs() < 1e-5 && (p.y - v).abs() < 1e-5,
+                "{u} {v} → {p}"
+            );
         }
     }
 

@@ -243,7 +243,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 _ => None,
             };
             if next_event {
-                let light = self.direct_light(&surface, &bsdf, wo, (mis, guide), rng, recorder, count);
+                let light =
+                    self.direct_light(&surface, &bsdf, wo, (mis, guide), rng, recorder, count);
                 let light = throughput * light;
                 radiance += light;
                 recorder.added(light);

@@ -52,7 +52,16 @@ pub fn train_guide<A: Accel>(
         for batch in rects.chunks(TILES_PER_BATCH) {
             let records: Vec<Vec<Record>> = batch
                 .par_iter()
-                .map(|&rect| train_tile(&guided, camera, settings, seed, rect, first_sample..first_sample + spp))
+                .map(|&rect| {
+                    train_tile(
+                        &guided,
+                        camera,
+                        settings,
+                        seed,
+                        rect,
+                        first_sample..first_sample + spp,
+                    )
+                })
                 .collect();
             if stop.load(Ordering::Relaxed) != 0 {
                 return None;

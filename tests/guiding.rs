@@ -1,0 +1,277 @@
+//! Path guiding (`ember::guiding`): the directional quadtree's density against its
+//! sampling (normalisation and chi-square, untrained and trained), training on a
+//! constructed scene whose light comes in through a small hole, and the same tree at
+//! any thread count.
+
+mod common;
+
+use std::sync::atomic::AtomicUsize;
+
+use common::stats::{check_density, chi_square, Binning, Density};
+use common::{build, diffuse, inward_cube, quad, Built};
+use ember::guiding::{
+    cosine_mass_in_cone, mass_in_cone, Guiding, QuadTree, SdTree, GUIDE_PROBABILITY,
+};
+use ember::integrator::{IntegratorKind, PathTracer};
+use ember::render::{render, train_guide, RenderSettings};
+use ember::sampling::{uniform_sphere, Rng};
+use ember::scene::{Camera, CameraSettings};
+use glam::{Vec2, Vec3};
+
+/// The untrained guide is the uniform density on the sphere, `1/4π`, and its draws
+/// follow it.
+#[test]
+fn untrained_guide_is_uniform_and_follows_its_density() {
+    let tree = QuadTree::uniform();
+    let d = Vec3::new(0.3, -0.5, 0.8).normalize();
+    assert!((tree.pdf(d) - 0.25 / std::f32::consts::PI).abs() < 1e-7);
+    check_density(
+        "uniform guide",
+        &Density {
+            value: &|d| tree.pdf(d),
+            draw: &|rng| {
+                let (u1, u2) = rng.pair();
+                Some(tree.sample(Vec2::new(u1, u2)))
+            },
+        },
+        Vec3::new(0.2, 0.9, -0.1).normalize(),
+        1.0,
+        2e-3,
+        Binning::default(),
+        11,
+    );
+}
+
+/// A tree trained over three iterations on deposits of a peaked function of direction
+/// (two lobes and a floor, sampled uniformly and deposited as `f / (1/4π)`).
+fn trained_tree() -> QuadTree {
+    let lobe_a = Vec3::new(0.3, 0.4, 0.866).normalize();
+    let lobe_b = Vec3::new(-0.8, 0.1, -0.3).normalize();
+    let f = |d: Vec3| {
+        20.0 * d.dot(lobe_a).max(0.0).powi(30) + 5.0 * d.dot(lobe_b).max(0.0).powi(8) + 0.05
+    };
+    let mut tree = QuadTree::uniform();
+    let mut rng = Rng::seeded(3);
+    for _ in 0..3 {
+        let mut filling = tree.cleared();
+        for _ in 0..50_000 {
+            let (u1, u2) = rng.pair();
+            let d = uniform_sphere(u1, u2);
+            filling.deposit(d, f64::from(f(d)) * 4.0 * std::f64::consts::PI);
+        }
+        tree = filling.refined();
+    }
+    tree
+}
+
+/// `∫ p` over each of `bins × bins` squares of the unit square, exactly: by the
+/// midpoint rule on points finer than the finest cell (dyadic, so each point's
+/// sub-square lies within one cell, where the density is constant).
+fn square_bin_masses(tree: &QuadTree, bins: usize) -> Vec<f64> {
+    let depth = tree.depth();
+    let points = 1usize << depth;
+    assert!(
+        points % bins == 0,
+        "{bins} bins align with cells of depth {depth}"
+    );
+    let per_bin = points / bins;
+    let mut masses = vec![0.0; bins * bins];
+    let cell = 1.0 / points as f64;
+    for i in 0..points {
+        for j in 0..points {
+            let p = Vec2::new(
+                ((i as f64 + 0.5) * cell) as f32,
+                ((j as f64 + 0.5) * cell) as f32,
+            );
+            masses[(j / per_bin) * bins + i / per_bin] +=
+                f64::from(tree.square_pdf(p)) * cell * cell;
+        }
+    }
+    masses
+}
+
+/// After training, the density integrates to 1 over the square (so to 1 over the
+/// sphere: the map has Jacobian 4π), has learnt the peaks, and its draws follow it.
+#[test]
+fn trained_guide_is_normalised_and_follows_its_density() {
+    let tree = trained_tree();
+    let depth = tree.depth();
+    eprintln!("trained tree: {} nodes, depth {depth}", tree.node_count());
+    assert!((4..=11).contains(&depth), "depth {depth}");
+    let bins = 32;
+    let masses = square_bin_masses(&tree, bins);
+    let total: f64 = masses.iter().sum();
+    assert!((total - 1.0).abs() < 1e-5, "∫ p = {total}");
+    // The peak is learnt: the density towards lobe A is far above uniform.
+    let lobe_a = Vec3::new(0.3, 0.4, 0.866).normalize();
+    assert!(tree.pdf(lobe_a) > 20.0 / (4.0 * std::f32::consts::PI));
+    let n = 400_000;
+    let mut rng = Rng::seeded(5);
+    let mut counts = vec![0.0; bins * bins];
+    for _ in 0..n {
+        let (u1, u2) = rng.pair();
+        let p = tree.sample_square(Vec2::new(u1, u2));
+        let (i, j) = ((p.x * bins as f32) as usize, (p.y * bins as f32) as usize);
+        counts[j.min(bins - 1) * bins + i.min(bins - 1)] += 1.0;
+    }
+    let expected: Vec<f64> = masses.iter().map(|m| m * n as f64).collect();
+    let (chi2, dof) = chi_square(&counts, &expected);
+    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
+    eprintln!("trained guide: chi2 {chi2:.1} over {dof} dof");
+    assert!(chi2 < limit, "chi-square {chi2:.1} over {dof} dof");
+    // And on the sphere, through the map: sampled directions against `pdf`.
+    check_density(
+        "trained guide",
+        &Density {
+            value: &|d| tree.pdf(d),
+            draw: &|rng| {
+                let (u1, u2) = rng.pair();
+                Some(tree.sample(Vec2::new(u1, u2)))
+            },
+        },
+        Vec3::Z,
+        1.0,
+        2e-2,
+        Binning {
+            nz: 8,
+            nphi: 8,
+            sub: 64,
+            draws: 100_000,
+        },
+        7,
+    );
+}
+
+/// A closed box `[-1, 1]³` (albedo 0.5) with one cell of its ceiling (side 0.25,
+/// centred at x = 0.125, z = 0.125) left open, and an emissive quad above the hole,
+/// facing down: all light comes in through the hole.
+fn box_with_hole() -> Built {
+    let cells = 8;
+    let hole = |t: &[Vec3; 3]| {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
+    };
+    let mut tris: Vec<_> = inward_cube(cells, 0)
+        .into_iter()
+        .filter(|(t, _)| !hole(t))
+        .collect();
+    assert_eq!(tris.len(), 12 * 64 - 2);
+    let y = 1.3;
+    tris.extend(quad(
+        Vec3::new(-0.2, y, -0.2),
+        Vec3::new(0.45, y, -0.2),
+        Vec3::new(0.45, y, 0.45),
+        Vec3::new(-0.2, y, 0.45),
+        1,
+    ));
+    build(
+        &tris,
+        vec![
+            diffuse(Vec3::splat(0.5), Vec3::ZERO),
+            diffuse(Vec3::ZERO, Vec3::splat(40.0)),
+        ],
+    )
+}
+
+fn inside_camera(size: u32) -> Camera {
+    CameraSettings {
+        eye: Vec3::new(0.0, 0.2, 0.9),
+        look_at: Vec3::new(0.0, -0.4, -1.0),
+        up: Vec3::Y,
+        vfov_degrees: 70.0,
+    }
+    .camera(size, size)
+}
+
+fn guided_settings(size: u32, spp: u32, iterations: u32) -> RenderSettings {
+    RenderSettings {
+        width: size,
+        height: size,
+        spp,
+        max_depth: 6,
+        seed: 2,
+        integrator: IntegratorKind::Mis,
+        adaptive: None,
+        guiding: Some(Guiding { iterations }),
+    }
+}
+
+fn train(built: &Built, settings: &RenderSettings) -> SdTree {
+    let tracer = PathTracer::new(
+        &built.scene,
+        &built.accel,
+        settings.max_depth,
+        settings.integrator,
+    );
+    let camera = inside_camera(settings.width);
+    let guiding = settings.guiding.expect("a guided render");
+    train_guide(&tracer, &camera, settings, guiding, &AtomicUsize::new(0))
+        .expect("not stopped")
+        .0
+}
+
+/// On the floor of the box with the hole, the trained guide puts far more of its
+/// mass in the cone towards the hole than the cosine density of the floor's BSDF.
+#[test]
+fn guide_learns_the_way_to_the_light_through_a_hole() {
+    let built = box_with_hole();
+    let tree = train(&built, &guided_settings(128, 1, 6));
+    eprintln!(
+        "box with a hole: {} leaves, {} nodes, {} bytes",
+        tree.leaf_count(),
+        tree.node_count(),
+        tree.memory_bytes()
+    );
+    assert!(tree.leaf_count() > 1, "the spatial tree split");
+    let hole = Vec3::new(0.125, 1.0, 0.125);
+    for p in [
+        Vec3::new(0.1, -0.99, 0.2),
+        Vec3::new(-0.5, -0.99, -0.4),
+        Vec3::new(0.5, -0.99, 0.6),
+    ] {
+        let axis = (hole - p).normalize();
+        // The cone holds the hole (half-diagonal 0.18 at distance ≥ 2) with a margin
+        // of a few cells of the guide.
+        let half_angle = 12f32.to_radians();
+        let guide = tree.at(p);
+        let guided = mass_in_cone(&|d| guide.pdf(d), axis, half_angle);
+        let cosine = cosine_mass_in_cone(Vec3::Y, axis, half_angle);
+        eprintln!("floor at {p}: mass towards the hole {guided:.3} guided, {cosine:.4} cosine");
+        assert!(
+            guided > 3.0 * cosine,
+            "at {p}: guided mass {guided:.4} against the cosine's {cosine:.4}"
+        );
+    }
+}
+
+/// Training folds its records in tile order: the tree is the same on 1 and 2
+/// threads, and so is the guided image.
+#[test]
+fn guided_render_is_the_same_at_any_thread_count() {
+    let built = box_with_hole();
+    let settings = guided_settings(24, 4, 4);
+    let on = |threads| {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        pool.install(|| {
+            let tree = train(&built, &settings);
+            let camera = inside_camera(settings.width);
+            let (image, stats) = render(&built.scene, &built.accel, &camera, &settings, &|_| {});
+            let bits: Vec<u32> = image
+                .pixels
+                .iter()
+                .flat_map(|p| p.to_array().map(f32::to_bits))
+                .collect();
+            (tree, bits, stats.guiding.expect("trained"))
+        })
+    };
+    let (one, two) = (on(1), on(2));
+    assert!(one.0 == two.0, "the trees differ");
+    assert_eq!(one.1, two.1, "the images differ");
+    assert_eq!(one.2.nodes, one.0.node_count());
+    assert!(one.1.iter().any(|&b| f32::from_bits(b) > 0.0));
+    // The mixture: half the directions come from the guide.
+    assert_eq!(GUIDE_PROBABILITY, 0.5);
+}
