@@ -5,15 +5,21 @@
 
 mod common;
 
-use std::sync::atomic::AtomicUsize;
+use std::path::Path;
+use std::process::{Command, Output};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use common::stats::{check_density, chi_square, Binning, Density};
 use common::{build, diffuse, inward_cube, quad, Built};
+use ember::accel::AccelKind;
+use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, mass_in_cone, Guiding, QuadTree, SdTree, GUIDE_PROBABILITY,
 };
 use ember::integrator::{IntegratorKind, PathTracer};
-use ember::render::{render, train_guide, RenderSettings};
+use ember::render::{
+    identity, render, render_progressive, train_guide, RenderControl, RenderSettings,
+};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings};
 use glam::{Vec2, Vec3};
@@ -274,4 +280,139 @@ fn guided_render_is_the_same_at_any_thread_count() {
     assert!(one.1.iter().any(|&b| f32::from_bits(b) > 0.0));
     // The mixture: half the directions come from the guide.
     assert_eq!(GUIDE_PROBABILITY, 0.5);
+}
+
+/// Renders `film`'s samples with `settings`, stopping once `stop_after` samples were
+/// taken (the stop is seen before each sample).
+fn run_film(built: &Built, settings: &RenderSettings, film: Film, stop_after: Option<u64>) -> Film {
+    let stop = AtomicUsize::new(0);
+    let taken = AtomicU64::new(0);
+    let on_samples = |n: u64| {
+        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
+        if stop_after.is_some_and(|limit| total >= limit) {
+            stop.store(2, Ordering::Relaxed);
+        }
+    };
+    let control = RenderControl {
+        stop: &stop,
+        on_samples: &on_samples,
+        first_pass_spp: 1,
+        checkpoint: None,
+        deadline: None,
+        on_pass: &|_| {},
+    };
+    let camera = inside_camera(settings.width);
+    render_progressive(
+        &built.scene,
+        &built.accel,
+        &camera,
+        settings,
+        film,
+        &control,
+    )
+    .0
+}
+
+/// Every process trains the same guide before rendering: a guided render stopped and
+/// resumed equals the uninterrupted one bit for bit, and shards (sample ranges) merge
+/// to it up to the regrouping of f64 sums.
+#[test]
+fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
+    let built = box_with_hole();
+    let settings = guided_settings(20, 6, 3);
+    let film = |samples| Film::new(settings.width, settings.height, samples);
+    let whole = run_film(&built, &settings, film(0..6), None);
+    let part = run_film(&built, &settings, film(0..6), Some(700));
+    assert!(part.min_done() < 6, "stopped early");
+    let resumed = run_film(&built, &settings, part, None);
+    assert_eq!(resumed.pixels, whole.pixels);
+    let mut merged = run_film(&built, &settings, film(0..2), None);
+    merged.merge(&run_film(&built, &settings, film(2..6), None));
+    for (a, b) in merged.pixels.iter().zip(&whole.pixels) {
+        assert_eq!((a.done, a.kept), (b.done, b.kept));
+        let (a, b) = (a.radiance, b.radiance);
+        assert!((a - b).abs().max_element() <= 1e-14 * b.max_element().max(1e-300));
+    }
+    // And the guide matters: the unguided film differs.
+    let unguided = RenderSettings {
+        guiding: None,
+        ..settings
+    };
+    assert_ne!(
+        run_film(&built, &unguided, film(0..6), None).pixels,
+        whole.pixels
+    );
+}
+
+/// Guiding is part of a render's identity (checkpoints and shards of another setting
+/// are refused), and unguided renders keep the identity they had before guiding.
+#[test]
+fn guiding_is_part_of_the_render_identity() {
+    let built = box_with_hole();
+    let camera = CameraSettings {
+        eye: Vec3::ZERO,
+        look_at: -Vec3::Z,
+        up: Vec3::Y,
+        vfov_degrees: 40.0,
+    };
+    let id = |guiding| {
+        let settings = RenderSettings {
+            guiding,
+            ..guided_settings(8, 1, 1)
+        };
+        identity(&built.scene, &camera, &settings, AccelKind::Embree)
+    };
+    let (none, three, four) = (
+        id(None),
+        id(Some(Guiding { iterations: 3 })),
+        id(Some(Guiding { iterations: 4 })),
+    );
+    assert_ne!(none, three);
+    assert_ne!(three, four);
+    assert!(!none.iter().any(|(k, _)| k == "guiding"));
+}
+
+fn ember(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ember"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .expect("ember runs")
+}
+
+/// `--guiding` with another integrator than mis is refused in one line before any
+/// work; a guided render reports its training and its tree.
+#[test]
+fn the_guiding_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("guided.png");
+    let out = out.to_str().unwrap();
+    let common = [
+        "render",
+        "meshes/CornellBox-Original.obj",
+        "-o",
+        out,
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--spp",
+        "2",
+        "--guiding",
+    ];
+    let refused = ember(&[&common[..], &["--integrator", "bsdf"]].concat());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with("error:") && stderr.contains("--guiding"),
+        "{stderr}"
+    );
+    assert!(!Path::new(out).exists());
+    let guided = ember(&[&common[..], &["--guiding-iterations", "2"]].concat());
+    let stderr = String::from_utf8_lossy(&guided.stderr);
+    assert!(guided.status.success(), "{stderr}");
+    assert!(stderr.contains("guiding trained in"), "{stderr}");
+    assert!(stderr.contains("1728 samples"), "3 spp at 24², {stderr}");
+    assert!(Path::new(out).is_file());
 }
