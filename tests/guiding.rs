@@ -7,19 +7,17 @@ mod common;
 
 use std::path::Path;
 use std::process::{Command, Output};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicUsize;
 
 use common::stats::{check_density, chi_square, Binning, Density};
-use common::{build, diffuse, inward_cube, quad, Built};
+use common::{build, diffuse, inward_cube, quad, render_stopping_after, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, mass_in_cone, Guiding, QuadTree, SdTree, GUIDE_PROBABILITY,
 };
 use ember::integrator::{IntegratorKind, PathTracer};
-use ember::render::{
-    identity, render, render_progressive, train_guide, RenderControl, RenderSettings,
-};
+use ember::render::{identity, render, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings};
 use glam::{Vec2, Vec3};
@@ -282,35 +280,9 @@ fn guided_render_is_the_same_at_any_thread_count() {
     assert_eq!(GUIDE_PROBABILITY, 0.5);
 }
 
-/// Renders `film`'s samples with `settings`, stopping once `stop_after` samples were
-/// taken (the stop is seen before each sample).
-fn run_film(built: &Built, settings: &RenderSettings, film: Film, stop_after: Option<u64>) -> Film {
-    let stop = AtomicUsize::new(0);
-    let taken = AtomicU64::new(0);
-    let on_samples = |n: u64| {
-        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
-        if stop_after.is_some_and(|limit| total >= limit) {
-            stop.store(2, Ordering::Relaxed);
-        }
-    };
-    let control = RenderControl {
-        stop: &stop,
-        on_samples: &on_samples,
-        first_pass_spp: 1,
-        checkpoint: None,
-        deadline: None,
-        on_pass: &|_| {},
-    };
+fn run_film(built: &Built, settings: &RenderSettings, film: Film, stop: Option<u64>) -> Film {
     let camera = inside_camera(settings.width);
-    render_progressive(
-        &built.scene,
-        &built.accel,
-        &camera,
-        settings,
-        film,
-        &control,
-    )
-    .0
+    render_stopping_after(&built.scene, &built.accel, &camera, settings, film, stop)
 }
 
 /// Every process trains the same guide before rendering: a guided render stopped and

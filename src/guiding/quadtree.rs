@@ -73,6 +73,19 @@ fn share(a: f64, b: f64) -> f32 {
     }
 }
 
+/// Whether the uniform `u` chooses the second of two parts, the first having
+/// probability `p_first`; `u` is rescaled to a uniform within the part chosen.
+#[inline]
+fn choose_second(u: &mut f32, p_first: f32) -> bool {
+    let second = *u >= p_first;
+    *u = if second {
+        (*u - p_first) / (1.0 - p_first)
+    } else {
+        *u / p_first
+    };
+    second
+}
+
 /// The square's coordinates of a unit direction.
 #[inline]
 pub fn direction_to_square(d: Vec3) -> Vec2 {
@@ -178,22 +191,9 @@ impl QuadTree {
             let e = self.nodes[node].energy;
             let (right, top);
             if e.iter().sum::<f64>() > 0.0 {
-                let (left_e, right_e) = (e[0] + e[2], e[1] + e[3]);
-                let p_left = share(left_e, right_e);
-                right = u.x >= p_left;
-                u.x = if right {
-                    (u.x - p_left) / (1.0 - p_left)
-                } else {
-                    u.x / p_left
-                };
+                right = choose_second(&mut u.x, share(e[0] + e[2], e[1] + e[3]));
                 let (bottom_e, top_e) = if right { (e[1], e[3]) } else { (e[0], e[2]) };
-                let p_bottom = share(bottom_e, top_e);
-                top = u.y >= p_bottom;
-                u.y = if top {
-                    (u.y - p_bottom) / (1.0 - p_bottom)
-                } else {
-                    u.y / p_bottom
-                };
+                top = choose_second(&mut u.y, share(bottom_e, top_e));
                 u = u.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
             } else {
                 // No energy below: uniform over this cell.

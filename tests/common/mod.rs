@@ -3,8 +3,13 @@
 
 pub mod stats;
 
-use ember::accel::EmbreeAccel;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+
+use ember::accel::{Accel, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
+use ember::film::Film;
+use ember::render::{render_progressive, RenderControl, RenderSettings};
+use ember::scene::Camera;
 use ember::scene::{Material, Scene, TriangleMesh};
 use glam::Vec3;
 
@@ -113,4 +118,34 @@ pub fn inward_cube(cells: u32, material: u32) -> Vec<([Vec3; 3], u32)> {
         }
     }
     tris
+}
+
+/// Renders `film` on with `settings` on the current rayon pool, asking the render to
+/// stop once `stop_after` samples were taken (the stop is seen before each sample, so
+/// this lands inside tiles and pixels).
+pub fn render_stopping_after<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    camera: &Camera,
+    settings: &RenderSettings,
+    film: Film,
+    stop_after: Option<u64>,
+) -> Film {
+    let stop = AtomicUsize::new(0);
+    let taken = AtomicU64::new(0);
+    let on_samples = |n: u64| {
+        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
+        if stop_after.is_some_and(|limit| total >= limit) {
+            stop.store(2, Ordering::Relaxed);
+        }
+    };
+    let control = RenderControl {
+        stop: &stop,
+        on_samples: &on_samples,
+        first_pass_spp: 1,
+        checkpoint: None,
+        deadline: None,
+        on_pass: &|_| {},
+    };
+    render_progressive(scene, accel, camera, settings, film, &control).0
 }
