@@ -389,9 +389,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 power_heuristic(light.pdf, mixture_pdf(bsdf_pdf, guide.pdf(light.dir)))
             }
         };
-        let incident = light.emission * (weight / light.pdf);
-        recorder.light_sample(surface.p, light.dir, incident);
-        f * incident
+        recorder.light_sample(surface.p, light.dir, light.emission * (weight / light.pdf));
+        // In this order, as before guiding existed: unguided samples keep their bits.
+        f * light.emission * (weight / light.pdf)
     }
 
     /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the
