@@ -59,12 +59,17 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
+    /// Seconds spent rendering the film's samples (without a guide's training).
+    pub fn rendering_seconds(&self) -> f64 {
+        (self.seconds - self.guiding.map_or(0.0, |g| g.seconds)).max(1e-9)
+    }
+
     pub fn samples_per_second(&self) -> f64 {
-        self.samples as f64 / self.seconds.max(1e-9)
+        self.samples as f64 / self.rendering_seconds()
     }
 
     pub fn mrays_per_second(&self) -> f64 {
-        self.rays as f64 / self.seconds.max(1e-9) / 1e6
+        self.rays as f64 / self.rendering_seconds() / 1e6
     }
 }
 
