@@ -22,7 +22,7 @@ use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
-use ember::guiding::Guiding;
+use ember::guiding::{Guiding, MAX_ITERATIONS};
 use ember::image::{self, Tonemap};
 use ember::integrator::IntegratorKind;
 use ember::render::{
@@ -120,7 +120,7 @@ pub struct RenderArgs {
     #[arg(long)]
     guiding: bool,
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
-    #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=12))]
+    #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
     guiding_iterations: u32,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.

@@ -46,11 +46,15 @@ pub fn mixture_pdf(bsdf_pdf: f32, guide_pdf: f32) -> f32 {
 }
 
 /// How a render is guided: the number of training iterations (iteration `k` takes
-/// `2^k` samples per pixel, so `2^iterations − 1` in all).
+/// `2^k` samples per pixel, so `2^iterations − 1` in all), at most [`MAX_ITERATIONS`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Guiding {
     pub iterations: u32,
 }
+
+/// Training iterations beyond this are not run (1023 spp of training, the last
+/// iteration at 512): the records of one tile of the last iteration stay near 26 MB.
+pub const MAX_ITERATIONS: u32 = 10;
 
 impl Default for Guiding {
     fn default() -> Self {

@@ -14,18 +14,28 @@ use rayon::prelude::*;
 use super::{camera_ray, RenderSettings, TILE_SIZE};
 use crate::accel::Accel;
 use crate::film::tile_rects;
-use crate::guiding::{Guiding, GuidingStats, PathRecords, Record, SdTree};
+use crate::guiding::{Guiding, GuidingStats, PathRecords, Record, SdTree, MAX_ITERATIONS};
 use crate::integrator::{PathTracer, RayCount};
 use crate::scene::Camera;
 
 /// Mixed into the render's seed so that training samples are not the render's.
 const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 
-/// Tiles rendered before their records are folded into the tree: bounds the records
-/// held at once (a 16×16 tile at 16 spp and depth 8 holds about 1 MB of them).
-const TILES_PER_BATCH: usize = 64;
+/// Records (28 bytes each) held at once while an iteration's tiles wait to be folded
+/// into the tree, as far as there are more tiles than workers: 4M, about 112 MB.
+const RECORDS_PER_BATCH: usize = 4 << 20;
+
+/// Tiles rendered before their records are folded in: as many as fit
+/// [`RECORDS_PER_BATCH`] (a path leaves at most `max_depth` records), at least one per
+/// worker, at most 64. At the last of 10 iterations (512 spp, depth 8) a tile holds
+/// up to 26 MB of records, so a batch holds at most that per worker.
+fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
+    let per_tile = (TILE_SIZE * TILE_SIZE) as usize * spp as usize * max_depth.max(1) as usize;
+    (RECORDS_PER_BATCH / per_tile).clamp(rayon::current_num_threads(), 64)
+}
 
 /// Trains the guide of a render with `settings` (iterations `0..guiding.iterations`,
+/// at most [`MAX_ITERATIONS`],
 /// iteration `k` at `2^k` samples per pixel, each guided by the tree before it).
 /// `None` when `stop` was set meanwhile.
 pub fn train_guide<A: Accel>(
@@ -41,7 +51,7 @@ pub fn train_guide<A: Accel>(
     let seed = settings.seed ^ TRAINING_SEED;
     let mut first_sample = 0u32;
     let mut samples = 0u64;
-    for k in 0..guiding.iterations.min(20) {
+    for k in 0..guiding.iterations.min(MAX_ITERATIONS) {
         let spp = 1u32 << k;
         let guided = PathTracer {
             guide: Some(&tree),
@@ -49,7 +59,7 @@ pub fn train_guide<A: Accel>(
             ..*tracer
         };
         let mut filling = tree.cleared();
-        for batch in rects.chunks(TILES_PER_BATCH) {
+        for batch in rects.chunks(tiles_per_batch(spp, settings.max_depth)) {
             let records: Vec<Vec<Record>> = batch
                 .par_iter()
                 .map(|&rect| {
