@@ -53,7 +53,7 @@ pub struct Guiding {
 }
 
 /// Training iterations beyond this are not run (1023 spp of training, the last
-/// iteration at 512): the records of one tile of the last iteration stay near 26 MB.
+/// iteration at 512): the records of one tile of the last iteration stay under 60 MB.
 pub const MAX_ITERATIONS: u32 = 10;
 
 impl Default for Guiding {

@@ -26,17 +26,20 @@ const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 const RECORDS_PER_BATCH: usize = 4 << 20;
 
 /// Tiles rendered before their records are folded in: as many as fit
-/// [`RECORDS_PER_BATCH`] (a path leaves at most `max_depth` records), at least one per
-/// worker, at most 64. At the last of 10 iterations (512 spp, depth 8) a tile holds
-/// up to 26 MB of records, so a batch holds at most that per worker.
+/// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
+/// and its light sample), at most 64, but at least one per worker. At the last of 10
+/// iterations (512 spp, depth 8) a tile holds up to 59 MB of records, so a batch holds
+/// at most that per worker.
 fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
-    let per_tile = (TILE_SIZE * TILE_SIZE) as usize * spp as usize * max_depth.max(1) as usize;
-    (RECORDS_PER_BATCH / per_tile).clamp(rayon::current_num_threads(), 64)
+    let per_path = 2 * max_depth.max(1) as usize;
+    let per_tile = (TILE_SIZE * TILE_SIZE) as usize * spp as usize * per_path;
+    let workers = rayon::current_num_threads();
+    (RECORDS_PER_BATCH / per_tile).min(64).max(workers)
 }
 
 /// Trains the guide of a render with `settings` (iterations `0..guiding.iterations`,
-/// at most [`MAX_ITERATIONS`],
-/// iteration `k` at `2^k` samples per pixel, each guided by the tree before it).
+/// at most [`MAX_ITERATIONS`], iteration `k` at `2^k` samples per pixel, each guided
+/// by the tree before it).
 /// `None` when `stop` was set meanwhile.
 pub fn train_guide<A: Accel>(
     tracer: &PathTracer<'_, A>,
