@@ -459,9 +459,8 @@ fn finish_render<A: Accel>(
         render_with_progress(loaded, accel, &plan.settings, film, &stop, checkpointing)
     });
 
-    let write_image = |path: &Path| -> Result<()> {
-        Ok(film.resolve().save_with(path, &plan.tonemap)?)
-    };
+    let write_image =
+        |path: &Path| -> Result<()> { Ok(film.resolve().save_with(path, &plan.tonemap)?) };
     let write_checkpoint = || save_checkpoint(&film);
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {

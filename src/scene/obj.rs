@@ -366,7 +366,10 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
             Err(reason) => return fail(mtl_path, reason),
         };
         let loaded = tobj::load_mtl_buf(&mut text.as_bytes());
-        match loaded.as_ref().map(|(materials, _)| materials.iter().find_map(unusable_value)) {
+        match loaded
+            .as_ref()
+            .map(|(materials, _)| materials.iter().find_map(unusable_value))
+        {
             Err(e) => fail(mtl_path, format!("{e}")),
             Ok(Some(reason)) => fail(mtl_path, reason),
             Ok(None) => loaded,
@@ -422,7 +425,10 @@ pub const MAX_IOR: f32 = 1000.0;
 fn unusable_value(m: &tobj::Material) -> Option<String> {
     let colours = [("Kd", m.diffuse), ("Ks", m.specular), ("Ke", m.emissive)];
     let bad = |key: &str, value: String| {
-        Some(format!("material {:?}: {key} {value} is not finite", m.name))
+        Some(format!(
+            "material {:?}: {key} {value} is not finite",
+            m.name
+        ))
     };
     for (key, colour) in colours {
         if let Some(c) = colour.filter(|c| !c.iter().all(|x| x.is_finite())) {
