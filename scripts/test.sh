@@ -15,7 +15,7 @@ echo "== cargo test (system Embree)" >&2
 cargo test --release
 echo "== Slurm: shards and a merge on a one-node cluster (installs munge and slurm)" >&2
 bash scripts/slurm/test.sh
-echo "== fuzzing OBJ/MTL loading for ${EMBER_CI_FUZZ_SECONDS:-60} s" >&2
+echo "== fuzzing OBJ/MTL, texture statements and film files for ${EMBER_CI_FUZZ_SECONDS:-60} s" >&2
 bash .ci/fuzz.sh "${EMBER_CI_FUZZ_SECONDS:-60}"
 echo "== Embree wrapper under valgrind" >&2
 bash .ci/valgrind.sh

@@ -20,14 +20,19 @@ use zune_core::options::DecoderOptions;
 /// reason alone: the caller names the file.
 pub fn decode_file(path: &Path) -> Result<DynamicImage, String> {
     let reader = ::image::ImageReader::open(path)
-        .map_err(|e| e.to_string())?
+        .map_err(one_line)?
         .with_guessed_format()
-        .map_err(|e| e.to_string())?;
+        .map_err(one_line)?;
     if reader.format() == Some(ImageFormat::Jpeg) {
-        let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+        let bytes = std::fs::read(path).map_err(one_line)?;
         return decode_jpeg(&bytes);
     }
-    reader.decode().map_err(|e| e.to_string())
+    reader.decode().map_err(one_line)
+}
+
+/// A decoder's message on one line (some span several).
+fn one_line(e: impl std::fmt::Display) -> String {
+    e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
 }
 
 /// A JPEG stream, decoded strictly to 8-bit grey, grey and alpha, RGB or RGBA (the
@@ -38,7 +43,7 @@ pub fn decode_jpeg(bytes: &[u8]) -> Result<DynamicImage, String> {
         .set_max_width(usize::from(u16::MAX))
         .set_max_height(usize::from(u16::MAX));
     let mut decoder = zune_jpeg::JpegDecoder::new_with_options(ZCursor::new(bytes), options);
-    let jpeg = |e: zune_jpeg::errors::DecodeErrors| format!("corrupt or truncated JPEG: {e}");
+    let jpeg = |e| format!("corrupt or truncated JPEG: {}", one_line(e));
     decoder.decode_headers().map_err(jpeg)?;
     let (width, height) = decoder.dimensions().ok_or("JPEG without dimensions")?;
     let colours = match decoder.input_colorspace() {
