@@ -25,6 +25,10 @@ use ember::image::{self, Tonemap};
 use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
 use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
 
+/// clap's ranges take `i64`.
+const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
+const MAX_SPP: i64 = ember::limits::MAX_SPP as i64;
+
 #[derive(Args)]
 pub struct RenderArgs {
     /// The OBJ scene (its MTL libraries and textures are read from beside it).
@@ -39,13 +43,13 @@ pub struct RenderArgs {
     #[arg(long, value_name = "I/N", value_parser = parse_shard, requires = "output", conflicts_with = "checkpoint")]
     shard: Option<(u32, u32)>,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     height: u32,
     /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
     spp: u32,
     /// Maximum path length in segments, the camera ray included (1: emitters only,
     /// 2: direct lighting).

@@ -85,6 +85,8 @@ pub enum CheckpointError {
     },
     #[error("{path} already has {done} samples per pixel, more than --spp {spp}")]
     PastTarget { path: PathBuf, done: u32, spp: u32 },
+    #[error("{path}: {reason}")]
+    TooLarge { path: PathBuf, reason: String },
     #[error(transparent)]
     Write(#[from] WriteError),
 }
@@ -166,14 +168,16 @@ impl FilmReader {
         let mut json = vec![0; json_len as usize];
         reader.read_hashed(&mut json)?;
         reader.header = parse_header(&json).map_err(|reason| reader.invalid(&reason))?;
-        let h = &reader.header;
-        let pixels = u64::from(h.width) * u64::from(h.height);
-        let expected = 16 + u64::from(json_len) + pixels * PIXEL_BYTES as u64 + 8;
-        if file_len != expected {
-            return Err(reader.invalid(&format!(
-                "{file_len} bytes where its header promises {expected} (truncated or damaged)"
-            )));
-        }
+        check_header(&reader.header, json_len, file_len).map_err(|r| reader.invalid(&r))?;
+        let (w, h) = (reader.header.width, reader.header.height);
+        crate::limits::check_fits(
+            &format!("the {w}x{h} film it holds"),
+            crate::render::render_memory_bytes(w, h),
+        )
+        .map_err(|reason| CheckpointError::TooLarge {
+            path: path.to_owned(),
+            reason,
+        })?;
         Ok(reader)
     }
 
@@ -222,6 +226,9 @@ impl FilmReader {
         let range_len = self.header.samples.len() as u32;
         let mut chunk = vec![0u8; PIXEL_BYTES * 4096];
         let mut i = 0;
+        // The fewest samples a pixel has, and the first pixel short of the header's claim.
+        let mut fewest = u32::MAX;
+        let mut short = None;
         while i < pixels {
             let n = (pixels - i).min(4096);
             let bytes = &mut chunk[..n * PIXEL_BYTES];
@@ -237,6 +244,10 @@ impl FilmReader {
                     return Err(self.invalid(&format!("inconsistent data at pixel {i}")));
                 }
                 add(i, sum, kept, done);
+                fewest = fewest.min(done);
+                if done < self.header.min_done && short.is_none() {
+                    short = Some((i, done));
+                }
                 i += 1;
             }
         }
@@ -247,6 +258,26 @@ impl FilmReader {
         if self.hasher.digest() != u64::from_le_bytes(stored) {
             return Err(self.invalid("checksum mismatch (damaged)"));
         }
+        self.check_claim(short, fewest)
+    }
+
+    /// The header's "every pixel has at least `min_done` samples" (its "complete" when
+    /// that is the whole range) against the pixels: `short` is the first pixel with
+    /// fewer (index, samples), `fewest` the fewest any pixel has.
+    fn check_claim(&self, short: Option<(usize, u32)>, fewest: u32) -> Result<(), CheckpointError> {
+        let h = &self.header;
+        let claim = if h.min_done == h.samples.len() as u32 {
+            format!("it claims to be complete ({} samples in every pixel)", h.min_done)
+        } else {
+            format!("it claims {} samples in every pixel", h.min_done)
+        };
+        if let Some((i, done)) = short {
+            let (x, y) = (i as u32 % h.width, i as u32 / h.width);
+            return Err(self.invalid(&format!("{claim}, but pixel ({x}, {y}) has {done}")));
+        }
+        if fewest != h.min_done {
+            return Err(self.invalid(&format!("{claim}, but every pixel has {fewest} or more")));
+        }
         Ok(())
     }
 
@@ -254,18 +285,11 @@ impl FilmReader {
     pub fn read_film(self) -> Result<Film, CheckpointError> {
         let h = &self.header;
         let mut film = Film::new(h.width, h.height, h.samples.clone());
-        let (path, min_done) = (self.path.clone(), h.min_done);
         self.read_pixels(|i, sum, kept, done| {
             film.sums[i] = sum;
             film.kept[i] = kept;
             film.done[i] = done;
         })?;
-        if film.min_done() != min_done {
-            return Err(CheckpointError::Invalid {
-                path,
-                reason: "the header's sample count disagrees with the pixels".into(),
-            });
-        }
         Ok(film)
     }
 }
@@ -308,13 +332,71 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
         shard: pair("shard")?,
         min_done: uint("min_done")?,
     };
-    if start > end || end > header.spp || header.min_done > end - start {
-        return Err("inconsistent sample range".into());
-    }
-    if header.shard.is_some_and(|(i, n)| i >= n) {
-        return Err("bad shard number".into());
-    }
     Ok(header)
+}
+
+/// The length of a film file of `pixels` pixels whose JSON header is `json_len` bytes:
+/// preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
+fn file_len_for(json_len: u32, pixels: u64) -> Option<u64> {
+    pixels
+        .checked_mul(PIXEL_BYTES as u64)?
+        .checked_add(16 + u64::from(json_len) + 8)
+}
+
+/// Checks what a header claims before anything is read or allocated from it: its size
+/// against the identity it carries and ember's limits, its sample range against its
+/// spp and shard number, and the file's length against the size (with checked
+/// arithmetic). What the pixels must then agree with is checked as they are read
+/// ([`FilmReader::read_pixels`]).
+fn check_header(h: &Header, json_len: u32, file_len: u64) -> Result<(), String> {
+    use crate::limits::{MAX_IMAGE_SIDE, MAX_SHARDS, MAX_SPP};
+    for (key, value) in [("width", h.width), ("height", h.height)] {
+        if !(1..=MAX_IMAGE_SIDE).contains(&value) {
+            return Err(format!("its {key} {value} is outside 1..={MAX_IMAGE_SIDE}"));
+        }
+        let carried = h.identity.iter().find(|(k, _)| k == key);
+        let carried = carried.map_or("none", |(_, v)| v.as_str());
+        if carried != value.to_string() {
+            return Err(format!(
+                "its {key} {value} disagrees with the {key} {carried} of the render it names"
+            ));
+        }
+    }
+    if !(1..=MAX_SPP).contains(&h.spp) {
+        return Err(format!("its spp {} is outside 1..={MAX_SPP}", h.spp));
+    }
+    let expected = match h.shard {
+        Some((i, n)) if i >= n || n > MAX_SHARDS => {
+            return Err(format!("shard {i}/{n} is not one of 0/N .. N-1/N, N ≤ {MAX_SHARDS}"))
+        }
+        Some(shard) => super::shard_samples(h.spp, shard),
+        None => 0..h.spp,
+    };
+    if h.samples != expected {
+        return Err(format!(
+            "as {} of {} spp it would hold samples {expected:?}, but it claims {:?}",
+            h.label(),
+            h.spp,
+            h.samples
+        ));
+    }
+    if h.min_done as usize > h.samples.len() {
+        return Err(format!(
+            "it claims {} samples in every pixel, more than its {} samples",
+            h.min_done,
+            h.samples.len()
+        ));
+    }
+    let pixels = u64::from(h.width) * u64::from(h.height);
+    match file_len_for(json_len, pixels) {
+        Some(expected) if expected == file_len => Ok(()),
+        expected => Err(format!(
+            "{file_len} bytes where its {}x{} header promises {} (truncated or damaged)",
+            h.width,
+            h.height,
+            expected.map_or("more than 2^64".into(), |n| n.to_string())
+        )),
+    }
 }
 
 /// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours).
