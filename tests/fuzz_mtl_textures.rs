@@ -59,7 +59,9 @@ fn files() -> &'static Files {
         let gradient = |w: u32, h: u32, f: &dyn Fn(u32, u32) -> [u8; 4]| {
             image::RgbaImage::from_fn(w, h, |x, y| image::Rgba(f(x, y)))
         };
-        let rgba = gradient(5, 3, &|x, y| [(x * 50) as u8, (y * 80) as u8, 90, (x * 60) as u8]);
+        let rgba = gradient(5, 3, &|x, y| {
+            [(x * 50) as u8, (y * 80) as u8, 90, (x * 60) as u8]
+        });
         image::DynamicImage::from(rgba.clone())
             .to_rgb8()
             .save(d.join("rgb.png"))
@@ -86,7 +88,10 @@ fn files() -> &'static Files {
         inf.pixels[7].y = f32::INFINITY;
         inf.save(&d.join("inf.exr")).unwrap();
         let photo = gradient(40, 24, &|x, y| [(x * 6) as u8, (y * 10) as u8, 128, 255]);
-        image::DynamicImage::from(photo).to_rgb8().save(d.join("photo.jpg")).unwrap();
+        image::DynamicImage::from(photo)
+            .to_rgb8()
+            .save(d.join("photo.jpg"))
+            .unwrap();
         for (whole, cut) in [("photo.jpg", "cut.jpg"), ("rgb.png", "cut.png")] {
             let bytes = std::fs::read(d.join(whole)).unwrap();
             std::fs::write(d.join(cut), &bytes[..bytes.len() / 2]).unwrap();
@@ -221,7 +226,9 @@ impl Input {
     fn mtl(&self) -> String {
         let mut text = String::new();
         for (name, statements) in ["a", "b"].iter().zip(&self.materials) {
-            text.push_str(&format!("newmtl {name}\nKd 0.5 0.6 0.7\nKs 0.2 0.2 0.2\nNs 20\n"));
+            text.push_str(&format!(
+                "newmtl {name}\nKd 0.5 0.6 0.7\nKs 0.2 0.2 0.2\nNs 20\n"
+            ));
             for s in statements {
                 text.push_str(&s.text);
                 text.push('\n');

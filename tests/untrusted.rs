@@ -8,8 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
-use ember::film::checkpoint::FilmReader;
+use ember::film::checkpoint::{self, FilmReader};
 use ember::image::Image;
+use serde_json::{json, Value};
 
 const EMBER: &str = env!("CARGO_BIN_EXE_ember");
 
@@ -68,6 +69,206 @@ fn small_render<'a>(out: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
     ];
     args.extend_from_slice(extra);
     args
+}
+
+// ---------------------------------------------------------------------------------
+// Film files (shards and checkpoints): their layout as the format documents it, for
+// crafting files whose checksum is valid: magic and version (12 bytes), the JSON
+// header's length (u32) and the header, the pixel records, and the XXH3 of the rest.
+
+struct FilmFile {
+    preamble: Vec<u8>,
+    header: Value,
+    records: Vec<u8>,
+}
+
+impl FilmFile {
+    fn read(path: &Path) -> FilmFile {
+        let bytes = std::fs::read(path).unwrap();
+        let len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        FilmFile {
+            preamble: bytes[..12].to_vec(),
+            header: serde_json::from_slice(&bytes[16..16 + len]).unwrap(),
+            records: bytes[16 + len..bytes.len() - 8].to_vec(),
+        }
+    }
+
+    /// Writes the file to `path` with its header as edited by `edit`, hashed anew.
+    fn write_with(&self, path: &Path, edit: impl FnOnce(&mut Value)) {
+        let mut header = self.header.clone();
+        edit(&mut header);
+        let json = header.to_string();
+        let mut bytes = self.preamble.clone();
+        bytes.extend_from_slice(&(json.len() as u32).to_le_bytes());
+        bytes.extend_from_slice(json.as_bytes());
+        bytes.extend_from_slice(&self.records);
+        let hash = xxhash_rust::xxh3::xxh3_64(&bytes);
+        bytes.extend_from_slice(&hash.to_le_bytes());
+        std::fs::write(path, bytes).unwrap();
+    }
+}
+
+/// Renders the two shards of a 16x12, 4 spp render of the Cornell box into `dir`
+/// (`s0.shard`, `s1.shard`) and a whole render's checkpoint (`whole.ckpt`, made with
+/// `--checkpoint-every` and the image `whole.exr`, which is removed).
+fn real_film_files(dir: &Path) {
+    let scene = cornell();
+    let scene = scene.to_str().unwrap();
+    for (i, name) in ["s0.shard", "s1.shard"].iter().enumerate() {
+        let shard = format!("{i}/2");
+        let out = ember(&small_render(name, &[scene, "--shard", &shard]), dir);
+        assert!(out.status.success(), "{}", stderr(&out));
+    }
+    let args = ["--checkpoint", "whole.ckpt", "--checkpoint-every", "100"];
+    let out = ember(
+        &small_render("whole.exr", &[&[scene][..], &args[..]].concat()),
+        dir,
+    );
+    assert!(out.status.success(), "{}", stderr(&out));
+    std::fs::remove_file(dir.join("whole.exr")).unwrap();
+}
+
+/// `ember merge` of the film file `file`: beside the real second shard if it is a
+/// shard, alone if it is the checkpoint of a whole render (which merges on its own).
+fn merge_args(file: &str) -> Vec<&str> {
+    let mut args = vec!["merge", file];
+    if file.ends_with(".shard") {
+        args.push("s1.shard");
+    }
+    args.extend(["-o", "merged.png"]);
+    args
+}
+
+/// Both readers of film files refuse `bad` (a crafted `s0.shard` or `whole.ckpt`) in
+/// one line naming it and each of `names`: `ember merge` (with `--allow-partial` too)
+/// beside the other real shard, and `ember render --resume`. No image is written.
+fn assert_refused(dir: &Path, bad: &str, names: &[&str]) {
+    let scene = cornell();
+    let scene = scene.to_str().unwrap();
+    let names = [&[bad][..], names].concat();
+    let merge = merge_args(bad);
+    let line = one_line_error(&ember(&merge, dir), &names);
+    assert!(!line.contains("capacity overflow"), "{line}");
+    one_line_error(
+        &ember(&[&merge[..], &["--allow-partial"]].concat(), dir),
+        &names,
+    );
+    let resume = if bad.ends_with(".shard") {
+        small_render("again.shard", &[scene, "--shard", "0/2", "--resume"])
+    } else {
+        small_render("again.exr", &[scene, "--resume", "--checkpoint", bad])
+    };
+    // --resume of a shard reads the output itself.
+    let resume: Vec<&str> = resume
+        .iter()
+        .map(|a| if *a == "again.shard" { bad } else { a })
+        .collect();
+    one_line_error(&ember(&resume, dir), &names);
+    for left in ["merged.png", "again.exr", "again.partial.exr"] {
+        assert!(!dir.join(left).exists(), "{left} written for {bad}");
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Class 1: header fields trusted before they are checked.
+
+/// A header (with a valid checksum) claiming a huge image, a size that differs from
+/// the identity it carries, or a film that does not fit the memory available, is
+/// refused by `merge` and `--resume` alike before anything is allocated from it.
+#[test]
+fn film_headers_are_checked_before_they_are_trusted() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    real_film_files(d);
+    for real in ["s0.shard", "whole.ckpt"] {
+        let file = FilmFile::read(&d.join(real));
+        let bad = format!("bad-{real}");
+        let path = d.join(&bad);
+        // Huge: past u32 products, past the pixel count in usize, past the limits.
+        for (w, h) in [
+            (u32::MAX, u32::MAX),
+            (65536, 65536),
+            (16384, 16384),
+            (0, 12),
+        ] {
+            file.write_with(&path, |v| {
+                v["width"] = json!(w);
+                v["height"] = json!(h);
+                v["identity"]["width"] = json!(w.to_string());
+                v["identity"]["height"] = json!(h.to_string());
+            });
+            let names = if w == 16384 {
+                ["bytes", "promises"]
+            } else {
+                ["width", "outside"]
+            };
+            assert_refused(d, &bad, &names);
+        }
+        // The same number of pixels (so the length agrees) in another shape than the
+        // identity's: 8x24 instead of 16x12.
+        file.write_with(&path, |v| {
+            v["width"] = json!(8);
+            v["height"] = json!(24);
+        });
+        assert_refused(d, &bad, &["width 8", "width 16"]);
+        // A valid file whose film does not fit in the memory available.
+        let merge = merge_args(real);
+        let out = Command::new(EMBER)
+            .args(merge)
+            .current_dir(d)
+            .env("EMBER_MEMORY_LIMIT", "4096")
+            .output()
+            .unwrap();
+        one_line_error(&out, &[real, "memory", "16x12"]);
+    }
+}
+
+// ---------------------------------------------------------------------------------
+// Class 2: claims not checked against the data.
+
+/// A header's claims are checked against the data they describe: "complete" while a
+/// pixel holds no samples, a sample range that is not its shard's, spp 0.
+#[test]
+fn film_claims_are_checked_against_their_data() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    real_film_files(d);
+    for real in ["s0.shard", "whole.ckpt"] {
+        let reader = FilmReader::open(&d.join(real)).unwrap();
+        let header = reader.header.clone();
+        let claimed = header.min_done;
+        assert_eq!(claimed as usize, header.samples.len(), "{real} is complete");
+        let mut film = reader.read_film().unwrap();
+        let bad = format!("bad-{real}");
+        let path = d.join(&bad);
+        // Pixel (5, 1) lost its samples, the header still says complete.
+        let i = 16 + 5;
+        film.done[i] = 0;
+        film.kept[i] = 0;
+        film.sums[i] = glam::DVec3::ZERO;
+        std::fs::write(&path, checkpoint::encode(&header, &film)).unwrap();
+        let emptied = FilmFile::read(&path);
+        emptied.write_with(&path, |v| v["min_done"] = json!(claimed));
+        assert_refused(d, &bad, &["complete", "pixel (5, 1) has 0"]);
+        // Honest about it, the same file is incomplete: refused by merge, merged with
+        // --allow-partial, continued by --resume.
+        emptied.write_with(&path, |_| {});
+        let merge = merge_args(&bad);
+        one_line_error(&ember(&merge, d), &[&bad, "incomplete"]);
+        let partial = ember(&[&merge[..], &["--allow-partial"]].concat(), d);
+        assert!(partial.status.success(), "{}", stderr(&partial));
+        std::fs::remove_file(d.join("merged.png")).unwrap();
+
+        // A sample range other than the one its spp and shard give.
+        let real_file = FilmFile::read(&d.join(real));
+        real_file.write_with(&path, |v| v["samples"] = json!([0, 3]));
+        assert_refused(d, &bad, &["samples 0..3"]);
+        // spp 0, with pixels that indeed hold no samples.
+        let empty = ember::film::Film::new(16, 12, 0..0);
+        std::fs::write(&path, checkpoint::encode(&header, &empty)).unwrap();
+        FilmFile::read(&path).write_with(&path, |v| v["spp"] = json!(0));
+        assert_refused(d, &bad, &["spp 0"]);
+    }
 }
 
 // ---------------------------------------------------------------------------------

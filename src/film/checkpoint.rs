@@ -267,7 +267,10 @@ impl FilmReader {
     fn check_claim(&self, short: Option<(usize, u32)>, fewest: u32) -> Result<(), CheckpointError> {
         let h = &self.header;
         let claim = if h.min_done == h.samples.len() as u32 {
-            format!("it claims to be complete ({} samples in every pixel)", h.min_done)
+            format!(
+                "it claims to be complete ({} samples in every pixel)",
+                h.min_done
+            )
         } else {
             format!("it claims {} samples in every pixel", h.min_done)
         };
@@ -367,14 +370,16 @@ fn check_header(h: &Header, json_len: u32, file_len: u64) -> Result<(), String> 
     }
     let expected = match h.shard {
         Some((i, n)) if i >= n || n > MAX_SHARDS => {
-            return Err(format!("shard {i}/{n} is not one of 0/N .. N-1/N, N ≤ {MAX_SHARDS}"))
+            return Err(format!(
+                "shard {i}/{n} is not one of 0/N .. N-1/N, N ≤ {MAX_SHARDS}"
+            ))
         }
         Some(shard) => super::shard_samples(h.spp, shard),
         None => 0..h.spp,
     };
     if h.samples != expected {
         return Err(format!(
-            "as {} of {} spp it would hold samples {expected:?}, but it claims {:?}",
+            "as {} of {} spp it would hold samples {expected:?}, but it claims samples {:?}",
             h.label(),
             h.spp,
             h.samples

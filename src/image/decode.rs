@@ -32,7 +32,10 @@ pub fn decode_file(path: &Path) -> Result<DynamicImage, String> {
 
 /// A decoder's message on one line (some span several).
 fn one_line(e: impl std::fmt::Display) -> String {
-    e.to_string().split_whitespace().collect::<Vec<_>>().join(" ")
+    e.to_string()
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
 }
 
 /// A JPEG stream, decoded strictly to 8-bit grey, grey and alpha, RGB or RGBA (the
