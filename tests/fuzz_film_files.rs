@@ -215,7 +215,9 @@ fn apply(parts: &mut Parts, edit: &Edit) {
             let keep = at.index(parts.records.len() + 1);
             parts.records.truncate(keep);
         }
-        Edit::Resize(_, n) => parts.records.extend(std::iter::repeat_n(0x5a, *n as usize)),
+        Edit::Resize(_, n) => parts
+            .records
+            .resize(parts.records.len() + *n as usize, 0x5a),
         Edit::Preamble(i, byte) => parts.preamble[*i as usize] = *byte,
     }
 }
