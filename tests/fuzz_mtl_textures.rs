@@ -16,7 +16,6 @@
 mod common;
 
 use std::path::PathBuf;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::OnceLock;
 
 use ember::image::Image;
@@ -246,10 +245,8 @@ fn scene_path() -> PathBuf {
     files().dir.path().join("scene.obj")
 }
 
-/// Inputs that loaded into a scene (the rest were refused with an error).
-static LOADED: AtomicU64 = AtomicU64::new(0);
-
-fn check(input: &Input) -> Result<(), TestCaseError> {
+/// Whether the input loaded (true) or was refused with an error.
+fn check(input: &Input) -> Result<bool, TestCaseError> {
     let mtl = input.mtl();
     std::fs::write(files().dir.path().join("scene.mtl"), &mtl).unwrap();
     match load_obj(&scene_path()) {
@@ -257,14 +254,13 @@ fn check(input: &Input) -> Result<(), TestCaseError> {
             let message = e.to_string();
             prop_assert!(!message.contains('\n'), "not one line: {message}");
             prop_assert!(!input.must_load(), "refused a valid MTL: {message}\n{mtl}");
-            Ok(())
+            Ok(false)
         }
         Ok((scene, _)) => {
-            LOADED.fetch_add(1, Ordering::Relaxed);
             check_scene(&scene)?;
             let dropped = common::fuzz::render_tiny(&scene)?;
             prop_assert_eq!(dropped, 0, "NaN or infinite samples\n{}", mtl);
-            Ok(())
+            Ok(true)
         }
     }
 }
@@ -302,11 +298,11 @@ fn check_scene(scene: &Scene) -> Result<(), TestCaseError> {
 
 #[test]
 fn fuzz_mtl_texture_statements() {
-    let run = common::fuzz::run("fuzz_mtl_texture_statements", input(), check);
-    eprintln!(
-        "fuzz_mtl_texture_statements: {} of {} inputs loaded and rendered",
-        LOADED.load(Ordering::Relaxed),
-        run.inputs
+    common::fuzz::run(
+        "fuzz_mtl_texture_statements",
+        "loaded and rendered",
+        input(),
+        check,
     );
 }
 

@@ -14,21 +14,17 @@ use ember::scene::{CameraSettings, Scene};
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
 
-/// How a fuzz run went.
-pub struct FuzzRun {
-    pub inputs: u64,
-    pub seconds: f64,
-    pub slowest: Duration,
-}
-
 /// Runs `check` on inputs from `strategy`: one batch of 256 by default, batches until
 /// `EMBER_FUZZ_SECONDS` seconds have passed when that is set. A failing input panics
-/// with proptest's (shrunk) case. `name` starts the summary line printed at the end.
+/// with proptest's (shrunk) case. `check` returns whether the input got through (was
+/// loaded, read) rather than refused; the summary line printed at the end, starting
+/// with `name`, counts both, with `through` saying what getting through is.
 pub fn run<T: std::fmt::Debug>(
     name: &str,
+    through: &str,
     strategy: impl Strategy<Value = T>,
-    check: impl Fn(&T) -> Result<(), TestCaseError>,
-) -> FuzzRun {
+    check: impl Fn(&T) -> Result<bool, TestCaseError>,
+) {
     let seconds: Option<u64> = std::env::var("EMBER_FUZZ_SECONDS")
         .ok()
         .and_then(|s| s.parse().ok());
@@ -36,6 +32,7 @@ pub fn run<T: std::fmt::Debug>(
     let start = Instant::now();
     let mut inputs = 0u64;
     let slowest = std::cell::Cell::new(Duration::ZERO);
+    let passed = std::cell::Cell::new(0u64);
     loop {
         // A fresh runner per batch: each starts from a new random seed.
         let mut runner = TestRunner::new(Config {
@@ -47,7 +44,8 @@ pub fn run<T: std::fmt::Debug>(
             let t = Instant::now();
             let r = check(&input);
             slowest.set(slowest.get().max(t.elapsed()));
-            r
+            passed.set(passed.get() + u64::from(matches!(r, Ok(true))));
+            r.map(drop)
         });
         inputs += u64::from(batch);
         if let Err(e) = result {
@@ -58,18 +56,12 @@ pub fn run<T: std::fmt::Debug>(
             _ => break,
         }
     }
-    let run = FuzzRun {
-        inputs,
-        seconds: start.elapsed().as_secs_f64(),
-        slowest: slowest.get(),
-    };
     eprintln!(
-        "{name}: {} inputs in {:.1} s, slowest {:.1} ms",
-        run.inputs,
-        run.seconds,
-        run.slowest.as_secs_f64() * 1e3
+        "{name}: {inputs} inputs ({} {through}) in {:.1} s, slowest {:.1} ms",
+        passed.get(),
+        start.elapsed().as_secs_f64(),
+        slowest.get().as_secs_f64() * 1e3
     );
-    run
 }
 
 fn device() -> &'static Device {
