@@ -10,8 +10,9 @@
 //! What must hold: no input panics or allocates without bound (.ci/fuzz.sh caps the
 //! address space); a refusal is one line naming the file; a file that is read is
 //! consistent: its film has the header's size and range, no pixel has more samples
-//! than the range or more finite ones than samples, the fewest samples in a pixel are
-//! what the header claims, and `ember merge`'s reader and `--resume`'s agree.
+//! than the range or more finite ones than samples, the fewest samples in a pixel and
+//! "complete" are what the header claims, and `ember merge`'s reader and `--resume`'s
+//! agree.
 //!
 //! `EMBER_FUZZ_SECONDS=N` runs for N seconds and prints how many inputs were tried.
 
@@ -41,21 +42,32 @@ fn identity() -> checkpoint::Identity {
     .collect()
 }
 
-/// A film of 6x4 pixels over `samples` with `done[i]` samples in pixel i.
-fn film(samples: std::ops::Range<u32>, done: impl Fn(usize) -> u32) -> Film {
+/// A film of 6x4 pixels over `samples` with `done(i)` samples in pixel i, which
+/// adaptive sampling stopped where `converged(i)`.
+fn film(
+    samples: std::ops::Range<u32>,
+    done: impl Fn(usize) -> u32,
+    converged: impl Fn(usize) -> bool,
+) -> Film {
     let mut film = Film::new(6, 4, samples);
-    for i in 0..24 {
-        film.done[i] = done(i);
-        film.kept[i] = done(i).saturating_sub(u32::from(i % 5 == 0));
-        film.sums[i] = DVec3::new(i as f64, 0.5, f64::from(done(i)) * 0.25);
+    for (i, p) in film.pixels.iter_mut().enumerate() {
+        p.done = done(i);
+        p.kept = done(i).saturating_sub(u32::from(i % 5 == 0));
+        p.radiance = DVec3::new(i as f64, 0.5, f64::from(done(i)) * 0.25);
+        p.radiance_sq = p.radiance * p.radiance;
+        p.albedo = glam::Vec3::splat(0.5);
+        p.normal = glam::Vec3::Z * p.kept as f32;
+        p.depth = 2.0 * p.kept as f32;
+        p.converged = converged(i);
     }
     film
 }
 
-/// Real film files to damage: shard 1/3 of a 7 spp render (complete), and the
-/// checkpoint of a whole 7 spp render interrupted with 2 to 4 samples per pixel.
-fn originals() -> &'static [Vec<u8>; 2] {
-    static FILES: OnceLock<[Vec<u8>; 2]> = OnceLock::new();
+/// Real film files to damage: shard 1/3 of a 7 spp render (complete), the checkpoint
+/// of a whole 7 spp render interrupted with 2 to 4 samples per pixel, and one that
+/// adaptive sampling completed (some pixels stopped at 3 samples).
+fn originals() -> &'static [Vec<u8>; 3] {
+    static FILES: OnceLock<[Vec<u8>; 3]> = OnceLock::new();
     FILES.get_or_init(|| {
         let range = shard_samples(7, (1, 3));
         let shard = Header {
@@ -69,9 +81,14 @@ fn originals() -> &'static [Vec<u8>; 2] {
             shard: None,
             ..shard.clone()
         };
+        let stopped = |i: usize| i % 4 == 1;
         [
-            checkpoint::encode(&shard, &film(range, |_| n)),
-            checkpoint::encode(&whole, &film(0..7, |i| 2 + (i % 3) as u32)),
+            checkpoint::encode(&shard, &film(range, |_| n, |_| false)),
+            checkpoint::encode(&whole, &film(0..7, |i| 2 + (i % 3) as u32, |_| false)),
+            checkpoint::encode(
+                &whole,
+                &film(0..7, |i| if stopped(i) { 3 } else { 7 }, stopped),
+            ),
         ]
     })
 }
@@ -112,8 +129,8 @@ fn hostile_value() -> impl Strategy<Value = Value> {
     ]
 }
 
-const FIELDS: [&str; 7] = [
-    "width", "height", "spp", "samples", "shard", "min_done", "identity",
+const FIELDS: [&str; 8] = [
+    "width", "height", "spp", "samples", "shard", "min_done", "complete", "identity",
 ];
 
 /// One damage to a file.
@@ -156,7 +173,7 @@ struct Input {
 
 fn input() -> impl Strategy<Value = Input> {
     (
-        0..2usize,
+        0..3usize,
         prop::collection::vec(edit(), 0..5),
         prop::bool::weighted(0.9),
     )
@@ -221,25 +238,26 @@ fn apply(parts: &mut Parts, edit: &Edit) {
     }
 }
 
-fn path() -> &'static PathBuf {
+/// The file an input is written to: one per test thread (the fuzz test and the
+/// regressions run at once), in one temporary directory.
+fn path() -> PathBuf {
     static DIR: OnceLock<tempfile::TempDir> = OnceLock::new();
-    static PATH: OnceLock<PathBuf> = OnceLock::new();
-    PATH.get_or_init(|| {
-        DIR.get_or_init(|| tempfile::tempdir().unwrap())
-            .path()
-            .join("f.shard")
-    })
+    let dir = DIR.get_or_init(|| tempfile::tempdir().unwrap());
+    let thread = format!("{:?}", std::thread::current().id());
+    let digits: String = thread.chars().filter(char::is_ascii_digit).collect();
+    dir.path().join(format!("film-{digits}.shard"))
 }
 
 /// Whether the input was read as a film (true) or refused with an error.
 fn check(input: &Input) -> Result<bool, TestCaseError> {
-    let path = path();
+    let path = &path();
+    let name = path.file_name().unwrap().to_string_lossy().into_owned();
     std::fs::write(path, input.bytes()).unwrap();
     let one_line = |e: &dyn std::fmt::Display| -> Result<(), TestCaseError> {
         let message = e.to_string();
         prop_assert!(!message.contains('\n'), "not one line: {}", message);
         prop_assert!(
-            message.contains("f.shard"),
+            message.contains(&name),
             "does not name the file: {}",
             message
         );
@@ -256,8 +274,7 @@ fn check(input: &Input) -> Result<bool, TestCaseError> {
         (Ok(film), Ok((merged, _))) => {
             check_film(film, &header)?;
             // The merge of one file is that film over 0..spp.
-            prop_assert_eq!(&merged.sums, &film.sums);
-            prop_assert_eq!(&merged.done, &film.done);
+            prop_assert_eq!(&merged.pixels, &film.pixels);
         }
         (Err(e), Err(_)) => one_line(e)?,
         // A merge may refuse what reads as a film on its own (it holds samples that
@@ -272,13 +289,14 @@ fn check_film(film: &Film, header: &Header) -> Result<(), TestCaseError> {
     prop_assert_eq!((film.width, film.height), (header.width, header.height));
     prop_assert_eq!(&film.samples, &header.samples);
     let pixels = film.width as usize * film.height as usize;
-    prop_assert!(film.sums.len() == pixels && film.done.len() == pixels);
+    prop_assert!(film.pixels.len() == pixels);
     let range = film.samples.len() as u32;
-    for i in 0..pixels {
-        prop_assert!(film.kept[i] <= film.done[i] && film.done[i] <= range);
-        prop_assert!(film.sums[i].is_finite());
+    for p in &film.pixels {
+        prop_assert!(p.kept <= p.done && p.done <= range);
+        prop_assert!(p.radiance.is_finite() && p.albedo.is_finite() && p.depth.is_finite());
     }
     prop_assert_eq!(film.min_done(), header.min_done);
+    prop_assert_eq!(film.is_complete(), header.complete);
     let identity: Vec<_> = header
         .identity
         .iter()
@@ -300,7 +318,7 @@ mod regressions {
 
     #[test]
     fn the_originals_read_and_a_huge_header_is_refused() {
-        for original in 0..2 {
+        for original in 0..3 {
             let input = Input {
                 original,
                 edits: Vec::new(),
@@ -308,7 +326,7 @@ mod regressions {
             };
             check(&input).unwrap();
             std::fs::write(path(), input.bytes()).unwrap();
-            assert!(FilmReader::open(path()).unwrap().read_film().is_ok());
+            assert!(FilmReader::open(&path()).unwrap().read_film().is_ok());
         }
         let huge = Input {
             original: 0,
@@ -322,6 +340,6 @@ mod regressions {
         };
         check(&huge).unwrap();
         std::fs::write(path(), huge.bytes()).unwrap();
-        assert!(FilmReader::open(path()).is_err());
+        assert!(FilmReader::open(&path()).is_err());
     }
 }

@@ -43,6 +43,7 @@ fn fixture() -> Fixture {
         max_depth: 5,
         seed: 11,
         integrator: IntegratorKind::Bsdf,
+        adaptive: None,
     };
     Fixture {
         camera: camera_settings.camera(settings.width, settings.height),
@@ -69,6 +70,8 @@ fn run(f: &Fixture, progress: Film, first_pass_spp: u32, stop_after: Option<u64>
         on_samples: &on_samples,
         first_pass_spp,
         checkpoint: None,
+        deadline: None,
+        on_pass: &|_| {},
     };
     let (progress, stats) = render_progressive(
         &f.scene,
@@ -96,13 +99,14 @@ fn header(identity: Identity, settings: &RenderSettings) -> Header {
         samples: 0..settings.spp,
         shard: None,
         min_done: 0,
+        complete: false,
     }
 }
 
 fn bits(p: &Film) -> Vec<u64> {
-    p.sums
+    p.pixels
         .iter()
-        .flat_map(|s| s.to_array().map(f64::to_bits))
+        .flat_map(|s| s.radiance.to_array().map(f64::to_bits))
         .collect()
 }
 
@@ -112,8 +116,8 @@ fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
     let pixels = u64::from(f.settings.width * f.settings.height);
     let fresh = || Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let whole = run(&f, fresh(), u32::MAX, None);
-    assert!(whole.done.iter().all(|&d| d == f.settings.spp));
-    assert!(whole.kept.iter().all(|&k| k <= f.settings.spp));
+    assert!(whole.pixels.iter().all(|p| p.done == f.settings.spp));
+    assert!(whole.pixels.iter().all(|p| p.kept <= f.settings.spp));
 
     // The one-pass render of `render()` is the same image.
     let (film, _) = render(&f.scene, &f.accel, &f.camera, &f.settings, &|_| {});
@@ -134,8 +138,7 @@ fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
             }
         }
         let resumed = run(&f, progress, 2, None);
-        assert_eq!(resumed.done, whole.done);
-        assert_eq!(resumed.kept, whole.kept);
+        assert_eq!(resumed.pixels, whole.pixels);
         assert_eq!(bits(&resumed), bits(&whole));
         assert_eq!(resumed.resolve(), whole.resolve());
     }
@@ -230,6 +233,8 @@ fn periodic_checkpoints_are_whole_files() {
             every: Duration::from_millis(1),
             write: &write,
         }),
+        deadline: None,
+        on_pass: &|_| {},
     };
     let progress = Film::new(settings.width, settings.height, 0..settings.spp);
     let (progress, _) =
@@ -237,7 +242,11 @@ fn periodic_checkpoints_are_whole_files() {
     // However many were written meanwhile, the file on disk is a complete checkpoint.
     if path.exists() {
         let loaded = checkpoint::load(&path, &identity, 0..settings.spp).unwrap();
-        assert!(loaded.done.iter().zip(&progress.done).all(|(a, b)| a <= b));
+        assert!(loaded
+            .pixels
+            .iter()
+            .zip(&progress.pixels)
+            .all(|(a, b)| a.done <= b.done));
     }
     let names: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
@@ -308,7 +317,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
     let identity = identity_of(&f.scene, &f.camera_settings, &f.settings);
     let film = Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let mut bytes = checkpoint::encode(&header(identity.clone(), &f.settings), &film);
-    for version in [1u32, 3] {
+    for version in [1u32, 2, 4] {
         bytes[8..12].copy_from_slice(&version.to_le_bytes());
         std::fs::write(&path, &bytes).unwrap();
         let err = checkpoint::load(&path, &identity, 0..6)
@@ -316,7 +325,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
             .to_string();
         assert!(
             err.contains(&format!("format version {version}"))
-                && err.contains("reads only version 2")
+                && err.contains("reads only version 3")
                 && !err.contains('\n'),
             "{err}"
         );

@@ -242,14 +242,17 @@ fn film_claims_are_checked_against_their_data() {
         let bad = format!("bad-{real}");
         let path = d.join(&bad);
         // Pixel (5, 1) lost its samples, the header still says complete.
-        let i = 16 + 5;
-        film.done[i] = 0;
-        film.kept[i] = 0;
-        film.sums[i] = glam::DVec3::ZERO;
+        film.pixels[16 + 5] = Default::default();
         std::fs::write(&path, checkpoint::encode(&header, &film)).unwrap();
         let emptied = FilmFile::read(&path);
-        emptied.write_with(&path, |v| v["min_done"] = json!(claimed));
+        emptied.write_with(&path, |v| {
+            v["min_done"] = json!(claimed);
+            v["complete"] = json!(true);
+        });
         assert_refused(d, &bad, &["complete", "pixel (5, 1) has 0"]);
+        // The same with only "complete" claimed (as adaptive sampling's films may).
+        emptied.write_with(&path, |v| v["complete"] = json!(true));
+        assert_refused(d, &bad, &["complete", "pixel (5, 1) has 0 of its"]);
         // Honest about it, the same file is incomplete: refused by merge, merged with
         // --allow-partial, continued by --resume.
         emptied.write_with(&path, |_| {});

@@ -3,6 +3,7 @@
 //! stays out of the library.
 
 pub mod bench;
+pub mod denoise;
 pub mod merge;
 pub mod misc;
 pub mod render;

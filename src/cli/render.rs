@@ -19,10 +19,14 @@ use signal_hook::iterator::Signals;
 use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
+use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::image::{self, Tonemap};
-use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
+use ember::render::{
+    self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
+};
 use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
 
 /// clap's ranges take `i64`.
@@ -48,9 +52,31 @@ pub struct RenderArgs {
     /// Image height in pixels.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     height: u32,
-    /// Samples per pixel.
+    /// Samples per pixel (with --noise-threshold or --time-limit, the most any pixel takes).
     #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
     spp: u32,
+    /// Adaptive sampling: after each pass, a pixel goes on only while its estimated
+    /// relative error (standard error over sqrt(mean² + 0.01), as `ember compare`'s
+    /// relMSE weighs it) is above T, in it or any of its eight neighbours. A render
+    /// whose pixels all reach T has a relMSE of about T².
+    #[arg(long, value_name = "T", value_parser = parse_threshold)]
+    noise_threshold: Option<f32>,
+    /// With --noise-threshold, the samples a pixel takes before it may stop
+    /// [default: 16, or --spp if fewer].
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
+    min_spp: Option<u32>,
+    /// Render passes until SECONDS have gone by (from the start of rendering), then
+    /// write the image; earlier if --spp or --noise-threshold is reached first.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    time_limit: Option<f64>,
+    /// Render passes to add to an .exr output as layers, comma-separated:
+    /// albedo, normal, depth, variance, spp.
+    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = parse_aov)]
+    aov: Vec<Aov>,
+    /// Denoise the image with Intel Open Image Denoise (its RT filter, guided by the
+    /// albedo and normal passes); an .exr output keeps the noisy image as layer "noisy".
+    #[arg(long)]
+    denoise: bool,
     /// Maximum path length in segments, the camera ray included (1: emitters only,
     /// 2: direct lighting).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
@@ -183,6 +209,10 @@ struct RenderPlan {
     background: Option<Vec3>,
     env: Option<EnvRequest>,
     tonemap: Tonemap,
+    /// Passes written beside the image (EXR output only).
+    aovs: Vec<Aov>,
+    denoise: bool,
+    time_limit: Option<Duration>,
     shard: Option<(u32, u32)>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
@@ -199,6 +229,18 @@ impl RenderPlan {
         let samples = args
             .shard
             .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
+        let adaptive = args.noise_threshold.map(|threshold| {
+            let whole = Adaptive {
+                threshold,
+                min_spp: args
+                    .min_spp
+                    .unwrap_or_else(|| Adaptive::default_min_spp(args.spp)),
+            };
+            // Each shard aims at the error that its merge with the others reaches T.
+            args.shard.map_or(whole, |(_, n)| whole.for_shard_of(n))
+        });
+        let mut aovs = args.aov;
+        aovs.dedup();
         RenderPlan {
             scene: args.scene,
             output,
@@ -214,6 +256,7 @@ impl RenderPlan {
                 max_depth: args.max_depth,
                 seed: args.seed,
                 integrator: args.integrator.into(),
+                adaptive,
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -228,6 +271,9 @@ impl RenderPlan {
                 rotate: args.env_rotate,
             }),
             tonemap: args.tone.into(),
+            aovs,
+            denoise: args.denoise,
+            time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
             samples,
         }
@@ -266,13 +312,17 @@ impl RenderPlan {
     }
 
     /// Every file this run may write, checked before any work: the image and the
-    /// partial image an interruption leaves (whole renders), and the checkpoint (or the
-    /// shard file, which is its own checkpoint). An interruption may come at any time,
+    /// partial image an interruption leaves (whole renders; their `--aov` passes are
+    /// layers of the same EXR), and the checkpoint (or the shard file, which is its own
+    /// checkpoint). An interruption may come at any time,
     /// so the partial image and the checkpoint are checked even when none is asked for.
     fn check_outputs(&self) -> Result<()> {
+        if self.shard.is_some() && (self.denoise || !self.aovs.is_empty()) {
+            bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
+        }
         if self.shard.is_none() {
-            image::check_output(&self.output)?;
-            image::check_output(&partial_output(&self.output))?;
+            check_image_output(&self.output, &self.aovs, self.denoise)?;
+            check_image_output(&partial_output(&self.output), &self.aovs, self.denoise)?;
             if same_file(&self.checkpoint, &self.output) {
                 bail!(
                     "the checkpoint {} would overwrite the image: give another --checkpoint",
@@ -294,6 +344,7 @@ impl RenderPlan {
             samples: self.samples.clone(),
             shard: self.shard,
             min_done: 0,
+            complete: false,
         }
     }
 }
@@ -310,6 +361,38 @@ fn parse_env_scale(s: &str) -> Result<f32, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
     }
+}
+
+fn parse_threshold(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a relative error > 0 (e.g. 0.05)")),
+    }
+}
+
+/// Refuses, before any work, an image output that cannot be written or cannot hold
+/// what is asked of it, and `--denoise` in an ember that cannot denoise.
+pub fn check_image_output(output: &Path, aovs: &[Aov], denoise: bool) -> Result<()> {
+    image::check_output(output)?;
+    let exr = image::OutputFormat::from_path(output)? == image::OutputFormat::Exr;
+    if !aovs.is_empty() && !exr {
+        bail!(
+            "--aov needs an .exr output, which holds the passes as layers beside the image; \
+             {} holds one image",
+            output.display()
+        );
+    }
+    if denoise {
+        ember::denoise::available()?;
+    }
+    Ok(())
+}
+
+pub fn parse_aov(s: &str) -> Result<Aov, String> {
+    Aov::from_name(s.trim()).ok_or_else(|| {
+        let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown pass {s:?}: choose from {}", names.join(", "))
+    })
 }
 
 fn parse_degrees(s: &str) -> Result<f32, String> {
@@ -459,12 +542,10 @@ fn finish_render<A: Accel>(
         every,
         write: &periodic,
     });
-    let (film, stats) = pool.install(|| {
-        render_with_progress(loaded, accel, &plan.settings, film, &stop, checkpointing)
-    });
+    let (film, stats, passes) =
+        pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
 
-    let write_image =
-        |path: &Path| -> Result<()> { Ok(film.resolve().save_with(path, &plan.tonemap)?) };
+    let write_image = |path: &Path| write_film_image(plan, &film, path);
     let write_checkpoint = || save_checkpoint(&film);
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
@@ -486,8 +567,19 @@ fn finish_render<A: Accel>(
         }
         None => write_image(&plan.output)?,
     }
-    report_finished(plan, accel.name(), &stats, loaded.report.triangles);
+    report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
     Ok(ExitCode::SUCCESS)
+}
+
+/// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
+/// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
+fn write_film_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
+    let output = FilmOutput {
+        aovs: &plan.aovs,
+        denoise: plan.denoise,
+        tonemap: &plan.tonemap,
+    };
+    Ok(output.write(film, path)?)
 }
 
 /// Writes the image at `image` and then the checkpoint; when the checkpoint fails, the
@@ -605,7 +697,13 @@ fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
     );
 }
 
-fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangles: usize) {
+fn report_finished(
+    plan: &RenderPlan,
+    accel: &str,
+    stats: &RenderStats,
+    passes: &PassReport,
+    triangles: usize,
+) {
     let s = &plan.settings;
     let dropped = match stats.dropped_samples {
         0 => String::new(),
@@ -623,12 +721,16 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
         Some(bytes) => format!(", peak memory {}", ember::limits::human_bytes(bytes)),
         None => String::new(),
     };
+    let spp = if s.adaptive.is_some() || plan.time_limit.is_some() {
+        spp_summary(passes)
+    } else {
+        format!("{} spp", s.spp)
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
+        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
         plan.output.display(),
         s.width,
         s.height,
-        s.spp,
         shard_note(plan),
         stats.seconds,
         stats.samples_per_second(),
@@ -639,28 +741,65 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
 fn render_with_progress<A: Accel>(
     loaded: &LoadedScene,
     accel: &A,
-    settings: &RenderSettings,
+    plan: &RenderPlan,
     film: Film,
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
-) -> (Film, RenderStats) {
-    let total = u64::from(settings.width) * u64::from(settings.height) * film.samples.len() as u64;
-    let bar = ProgressBar::new(total);
-    bar.set_position(film.total_done());
+) -> (Film, RenderStats, PassReport) {
+    let settings = &plan.settings;
+    let started = Instant::now();
+    let deadline = plan.time_limit.map(|limit| started + limit);
+    // A time-limited render's bar is its time; any other's, its samples, less those
+    // that converged pixels will not take.
+    let bar = match plan.time_limit {
+        Some(limit) => ProgressBar::new(limit.as_millis().max(1) as u64),
+        None => {
+            let pixels = u64::from(settings.width) * u64::from(settings.height);
+            let bar = ProgressBar::new(pixels * film.samples.len() as u64);
+            bar.set_position(film.total_done());
+            bar
+        }
+    };
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
+            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta}) {msg}",
         )
         .expect("static template is valid"),
     );
+    let on_samples = |samples: u64| match plan.time_limit {
+        Some(limit) => bar.set_position(started.elapsed().min(limit).as_millis() as u64),
+        None => bar.inc(samples),
+    };
+    let on_pass = |report: &PassReport| {
+        if plan.time_limit.is_none() {
+            bar.set_length(bar.position() + report.remaining);
+        }
+        if settings.adaptive.is_some() || plan.time_limit.is_some() {
+            bar.set_message(spp_summary(report));
+        }
+    };
     let control = RenderControl {
         stop,
-        on_samples: &|samples| bar.inc(samples),
+        on_samples: &on_samples,
         first_pass_spp: 1,
         checkpoint,
+        deadline,
+        on_pass: &on_pass,
     };
     let (scene, camera) = (&loaded.scene, &loaded.camera);
-    let result = render::render_progressive(scene, accel, camera, settings, film, &control);
+    let (film, stats) = render::render_progressive(scene, accel, camera, settings, film, &control);
     bar.finish_and_clear();
-    result
+    let report = PassReport::of(&film);
+    (film, stats, report)
+}
+
+/// `spp 16/23.5/64 (min/mean/max), 41.2% converged`.
+fn spp_summary(report: &PassReport) -> String {
+    format!(
+        "spp {}/{:.1}/{} (min/mean/max), {:.1}% converged",
+        report.min_spp,
+        report.mean_spp,
+        report.max_spp,
+        100.0 * report.converged_fraction()
+    )
 }

@@ -4,10 +4,12 @@
 
 mod compare;
 mod decode;
+pub mod layers;
 mod tonemap;
 
 pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
 pub use decode::{decode_file, decode_jpeg};
+pub use layers::{Layer, LayerError, LayeredImage};
 pub use tonemap::{ToneCurve, Tonemap};
 
 use std::path::{Path, PathBuf};

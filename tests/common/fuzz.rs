@@ -95,6 +95,7 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         max_depth: 4,
         seed: 1,
         integrator: IntegratorKind::Bsdf,
+        adaptive: None,
     };
     let (film, stats) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(film.pixels.iter().all(|p| p.is_finite()));
