@@ -59,10 +59,11 @@ impl From<IntegratorArg> for IntegratorKind {
 
 /// `I/N`: shard I (from 0) of N.
 pub fn parse_shard(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("expected I/N with 0 <= I < N <= 1000000, got {s:?}");
+    let most = ember::limits::MAX_SHARDS;
+    let bad = || format!("expected I/N with 0 <= I < N <= {most}, got {s:?}");
     let (i, n) = s.trim().split_once('/').ok_or_else(bad)?;
     let (i, n): (u32, u32) = (i.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
-    if i < n && n <= 1_000_000 {
+    if i < n && n <= most {
         Ok((i, n))
     } else {
         Err(bad())
