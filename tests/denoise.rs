@@ -3,6 +3,8 @@
 //! (a denoised 16-spp Cornell box beats a noisy 64-spp one), and the CLI's handling of
 //! bad files.
 
+#![cfg(feature = "denoise")]
+
 mod common;
 
 use std::path::{Path, PathBuf};
