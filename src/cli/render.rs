@@ -20,6 +20,7 @@ use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
 use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::image::{self, Tonemap};
 use ember::render::{
@@ -277,16 +278,11 @@ impl RenderPlan {
     fn check(&self) -> Result<()> {
         if self.shard.is_some() {
             ember::io::check_writable(&self.output)?;
-        } else {
-            image::check_output(&self.output)?;
-            let exr = image::OutputFormat::from_path(&self.output)? == image::OutputFormat::Exr;
-            if !self.aovs.is_empty() && !exr {
-                bail!(
-                    "--aov needs an .exr output, which holds the passes as layers beside the \
-                     image; {} holds one image",
-                    self.output.display()
-                );
+            if self.denoise || !self.aovs.is_empty() {
+                bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
             }
+        } else {
+            check_image_output(&self.output, &self.aovs, self.denoise)?;
         }
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
@@ -348,7 +344,25 @@ fn parse_threshold(s: &str) -> Result<f32, String> {
     }
 }
 
-fn parse_aov(s: &str) -> Result<Aov, String> {
+/// Refuses, before any work, an image output that cannot be written or cannot hold
+/// what is asked of it, and `--denoise` in an ember that cannot denoise.
+pub fn check_image_output(output: &Path, aovs: &[Aov], denoise: bool) -> Result<()> {
+    image::check_output(output)?;
+    let exr = image::OutputFormat::from_path(output)? == image::OutputFormat::Exr;
+    if !aovs.is_empty() && !exr {
+        bail!(
+            "--aov needs an .exr output, which holds the passes as layers beside the image; \
+             {} holds one image",
+            output.display()
+        );
+    }
+    if denoise {
+        ember::denoise::available()?;
+    }
+    Ok(())
+}
+
+pub fn parse_aov(s: &str) -> Result<Aov, String> {
     Aov::from_name(s.trim()).ok_or_else(|| {
         let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
         format!("unknown pass {s:?}: choose from {}", names.join(", "))
@@ -530,10 +544,12 @@ fn finish_render<A: Accel>(
 /// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
 /// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
 fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
-    if !plan.aovs.is_empty() || plan.denoise {
-        bail!("--aov and --denoise are being wired in");
-    }
-    Ok(film.resolve().save_with(path, &plan.tonemap)?)
+    let output = FilmOutput {
+        aovs: &plan.aovs,
+        denoise: plan.denoise,
+        tonemap: &plan.tonemap,
+    };
+    Ok(output.write(film, path)?)
 }
 
 /// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second

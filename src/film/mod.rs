@@ -13,6 +13,7 @@
 pub mod aov;
 pub mod checkpoint;
 pub mod merge;
+pub mod output;
 
 use std::ops::Range;
 
