@@ -348,6 +348,29 @@ fn ember_denoise_refuses_bad_files_in_one_line() {
     refuses(&png, &[], &["picture.exr", "OpenEXR"]);
 
     refuses(&dir.path().join("absent.exr"), &[], &["absent.exr"]);
+
+    // OIDN's scratch alone is 600 bytes a pixel: 16x12 pixels do not fit in 100 kB.
+    let good_out = dir.path().join("out.exr");
+    let run = Command::new(env!("CARGO_BIN_EXE_ember"))
+        .args([
+            "denoise".as_ref(),
+            good.as_os_str(),
+            "-o".as_ref(),
+            good_out.as_os_str(),
+        ])
+        .env("EMBER_MEMORY_LIMIT", "100000")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        !run.status.success() && stderr.lines().count() == 1,
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("good.exr") && stderr.contains("memory"),
+        "{stderr}"
+    );
+    assert!(!good_out.exists());
 }
 
 #[test]
