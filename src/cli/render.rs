@@ -52,12 +52,12 @@ pub struct RenderArgs {
     spp: u32,
     /// Adaptive sampling: after each pass, a pixel goes on only while its estimated
     /// relative error (standard error over sqrt(mean² + 0.01), as `ember compare`'s
-    /// relMSE weighs it) is above T, in it or any of its eight neighbours. A render
+    /// relMSE weighs it) is above T, in it or any pixel of its 5×5 neighbourhood. A render
     /// whose pixels all reach T has a relMSE of about T².
     #[arg(long, value_name = "T", value_parser = parse_threshold)]
     noise_threshold: Option<f32>,
     /// With --noise-threshold, the samples a pixel takes before it may stop
-    /// [default: 16, or --spp if fewer].
+    /// [default: 32, or --spp if fewer].
     #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
     min_spp: Option<u32>,
     /// Render passes until SECONDS have gone by (from the start of rendering), then

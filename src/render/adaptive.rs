@@ -4,12 +4,22 @@
 //!
 //! A pixel's own estimate is unreliable while it has few samples: a pixel whose few
 //! paths all missed a small light looks noiseless. So a pixel is stopped only when
-//! it has `min_spp` samples and every pixel of its 3×3 neighbourhood (in the whole
+//! it has `min_spp` samples and every pixel of its 5×5 neighbourhood (in the whole
 //! image, across tiles) is below the threshold too: the neighbours rarely all miss
 //! the same light by the same luck. The decision depends only on the film after a
 //! pass, so it is the same at any thread count and after a resume.
+//!
+//! Stopping on a pixel's own samples is not quite unbiased: a pixel stops a little
+//! more often when its samples happen to be low. On GlossyMix at 128² and T = 0.15
+//! (its caustics are rare, bright paths) the image mean was 0.7% low with these rules
+//! (1.0% with a 3×3 neighbourhood, 2.0% with 3×3 and 16 samples first), while its
+//! relMSE was 1.9× lower than uniform sampling's at the same samples; the bias falls
+//! with T and with `min_spp`.
 
 use crate::film::PixelSums;
+
+/// How far (in pixels, each way) a pixel's neighbourhood reaches.
+const NEIGHBOURHOOD_RADIUS: usize = 2;
 
 /// `--noise-threshold` and `--min-spp`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -25,7 +35,7 @@ impl Adaptive {
     /// The default `--min-spp`: enough samples for a variance estimate to mean
     /// something, and never more than the render takes.
     pub fn default_min_spp(spp: u32) -> u32 {
-        16.min(spp)
+        32.min(spp)
     }
 
     /// The threshold for one of `n` shards of a render that should reach `threshold`
@@ -48,11 +58,12 @@ pub fn converged(pixels: &[PixelSums], width: u32, height: u32, adaptive: &Adapt
         .iter()
         .map(|p| if p.converged { 0.0 } else { p.relative_error() })
         .collect();
-    // The largest error in each row's 3-wide windows, then over three such rows.
+    // The largest error in each row's windows, then over the window's rows.
+    let r = NEIGHBOURHOOD_RADIUS;
     let mut across = vec![0.0f64; w * h];
     for y in 0..h {
         for x in 0..w {
-            let row = &error[y * w + x.saturating_sub(1)..y * w + (x + 2).min(w)];
+            let row = &error[y * w + x.saturating_sub(r)..y * w + (x + r + 1).min(w)];
             across[y * w + x] = row.iter().copied().fold(0.0, f64::max);
         }
     }
@@ -60,7 +71,7 @@ pub fn converged(pixels: &[PixelSums], width: u32, height: u32, adaptive: &Adapt
     (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            let worst = (y.saturating_sub(1)..(y + 2).min(h))
+            let worst = (y.saturating_sub(r)..(y + r + 1).min(h))
                 .map(|yy| across[yy * w + x])
                 .fold(0.0, f64::max);
             let p = &pixels[i];
@@ -101,13 +112,14 @@ mod tests {
             threshold: 0.05,
             min_spp: 8,
         };
-        let mut pixels = vec![pixel(64, 1.0, 1.0); 5 * 4];
-        pixels[2 * 5 + 3] = pixel(64, 0.0, 2.0); // error ≈ 0.124
-        let stop = converged(&pixels, 5, 4, &adaptive);
-        for y in 0..4 {
-            for x in 0..5 {
-                let near = (x as i32 - 3).abs() <= 1 && (y as i32 - 2).abs() <= 1;
-                assert_eq!(stop[y * 5 + x], !near, "pixel ({x}, {y})");
+        let (w, h) = (9, 7);
+        let mut pixels = vec![pixel(64, 1.0, 1.0); w * h];
+        pixels[2 * w + 3] = pixel(64, 0.0, 2.0); // error ≈ 0.124
+        let stop = converged(&pixels, w as u32, h as u32, &adaptive);
+        for y in 0..h {
+            for x in 0..w {
+                let near = (x as i32 - 3).abs() <= 2 && (y as i32 - 2).abs() <= 2;
+                assert_eq!(stop[y * w + x], !near, "pixel ({x}, {y})");
             }
         }
         // Below min_spp nothing stops, however flat.

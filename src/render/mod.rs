@@ -270,7 +270,14 @@ impl<A: Accel> Passes<'_, A> {
     /// whole pass, are then the same.
     fn run(&self, count: u32) {
         let mut last_pass: Option<(u32, Duration)> = None;
-        while !self.stopped() {
+        loop {
+            let report = self.at_pass_end(count);
+            if last_pass.is_some() {
+                (self.control.on_pass)(&report);
+            }
+            if self.stopped() {
+                break;
+            }
             let Some(level) = self.fewest_samples_going() else {
                 break;
             };
@@ -290,10 +297,6 @@ impl<A: Accel> Passes<'_, A> {
                 (self.control.on_samples)(taken);
             });
             last_pass = Some((target - level, started.elapsed()));
-            if self.stopped() {
-                break;
-            }
-            (self.control.on_pass)(&self.after_pass(count));
         }
     }
 
@@ -319,8 +322,14 @@ impl<A: Accel> Passes<'_, A> {
             .min()
     }
 
-    /// After a whole pass: adaptive sampling's decisions, and the film's state.
-    fn after_pass(&self, count: u32) -> PassReport {
+    /// The film's state, after adaptive sampling's decisions where a pass has ended:
+    /// where every pixel still going has the same sample count. That is the state
+    /// after each whole pass, and also that of a render stopped there or resumed from
+    /// there; deciding again on it decides the same (a stopped pixel's error is below
+    /// the threshold already), so a resumed render takes the decisions of an
+    /// uninterrupted one. A render stopped inside a pass decides nothing until it
+    /// ends that pass.
+    fn at_pass_end(&self, count: u32) -> PassReport {
         let mut tiles: Vec<_> = self
             .tiles
             .iter()
@@ -332,7 +341,10 @@ impl<A: Accel> Passes<'_, A> {
         for tile in &tiles {
             film.write_tile(tile);
         }
-        if let Some(adaptive) = &self.settings.adaptive {
+        let mut going = film.pixels.iter().filter(|p| !p.converged).map(|p| p.done);
+        let first = going.next();
+        let at_pass_end = going.all(|d| Some(d) == first);
+        if let (Some(adaptive), true) = (&self.settings.adaptive, at_pass_end) {
             let stop = adaptive::converged(&film.pixels, w, h, adaptive);
             for (p, stop) in film.pixels.iter_mut().zip(stop) {
                 p.converged = stop;
