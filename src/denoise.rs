@@ -46,6 +46,9 @@ pub enum DenoiseError {
     },
     #[error("the image is empty ({0}x{1})")]
     Empty(u32, u32),
+    /// The machine (or EMBER_MEMORY_LIMIT) has less memory than denoising needs.
+    #[error("{0}")]
+    Memory(String),
     /// OIDN's own error: its kind and message.
     #[error("Open Image Denoise failed ({kind}): {message}")]
     Oidn { kind: &'static str, message: String },
@@ -80,6 +83,9 @@ pub fn denoise(color: &Image, aux: Option<(&Image, &Image)>) -> Result<Image, De
         return Err(DenoiseError::Empty(color.width, color.height));
     }
     check_finite("colour", color)?;
+    let (w, h) = (color.width, color.height);
+    crate::limits::check_fits(&format!("denoising a {w}x{h} image"), memory_bytes(w, h))
+        .map_err(DenoiseError::Memory)?;
     if let Some((albedo, normal)) = aux {
         for (pass, image) in [("albedo", albedo), ("normal", normal)] {
             if (image.width, image.height) != (color.width, color.height) {

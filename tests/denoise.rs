@@ -537,3 +537,43 @@ fn ember_render_denoise_writes_the_denoised_and_the_noisy_image() {
         main
     );
 }
+
+/// `ember render --denoise` counts OIDN's memory before it renders: a budget that holds
+/// the 128² render (about 4 MB) but not OIDN's scratch beside it (11 MB) is refused in
+/// one line, leaving no file, while the same render without --denoise goes through.
+#[test]
+fn ember_render_denoise_checks_memory_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.exr");
+    let obj = repo(ORIGINAL.obj);
+    let run = |denoise: bool| {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_ember"));
+        cmd.arg("render")
+            .arg(&obj)
+            .args(["--width", "128", "--height", "128", "--spp", "2"]);
+        cmd.arg("-o").arg(&out).env("EMBER_MEMORY_LIMIT", "8000000");
+        if denoise {
+            cmd.arg("--denoise");
+        }
+        cmd.output().unwrap()
+    };
+    let refused = run(true);
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success(), "{stderr}");
+    let last = stderr.lines().last().unwrap_or_default();
+    assert!(
+        last.starts_with("error: ") && last.contains("memory"),
+        "{stderr}"
+    );
+    assert!(
+        !stderr.contains("wrote"),
+        "refused before rendering: {stderr}"
+    );
+    assert!(!out.exists());
+    let plain = run(false);
+    assert!(
+        plain.status.success(),
+        "{}",
+        String::from_utf8_lossy(&plain.stderr)
+    );
+}

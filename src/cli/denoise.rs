@@ -35,12 +35,6 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
     let start = Instant::now();
     let input = LayeredImage::read_exr(&args.input)?;
     let color = layer(&input, &args.input, names::MAIN, names::RGB)?;
-    let (w, h) = (color.width, color.height);
-    ember::limits::check_fits(
-        &format!("denoising {} ({w}x{h})", args.input.display()),
-        denoise::memory_bytes(w, h),
-    )
-    .map_err(anyhow::Error::msg)?;
     let aux = if args.no_aux {
         None
     } else {
