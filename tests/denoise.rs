@@ -268,6 +268,18 @@ fn ember(args: &[&std::ffi::OsStr]) -> std::process::Output {
         .expect("ember runs")
 }
 
+/// `ember denoise INPUT -o OUTPUT`, which must succeed.
+fn ember_denoise(input: &Path, output: &Path) {
+    let run = ember(&[
+        "denoise".as_ref(),
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+    ]);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{}: {stderr}", input.display());
+}
+
 /// A render-like EXR: a noisy constant main image, with the given passes.
 fn passes(main: &Image, albedo: Option<&Image>, normal: Option<&Image>) -> LayeredImage {
     let mut file = LayeredImage::new(main.width, main.height);
@@ -385,17 +397,7 @@ fn ember_denoise_keeps_the_layers_and_the_noisy_image() {
     input.write_exr(&input_path).unwrap();
 
     let exr = dir.path().join("clean.exr");
-    let run = ember(&[
-        "denoise".as_ref(),
-        input_path.as_os_str(),
-        "-o".as_ref(),
-        exr.as_os_str(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    ember_denoise(&input_path, &exr);
     let output = LayeredImage::read_exr(&exr).unwrap();
     let names: Vec<&str> = output.layers.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["", "albedo", "depth", "noisy", "normal"]);
@@ -414,31 +416,11 @@ fn ember_denoise_keeps_the_layers_and_the_noisy_image() {
 
     // PNG and HDR hold the denoised image alone.
     let png = dir.path().join("clean.png");
-    let run = ember(&[
-        "denoise".as_ref(),
-        input_path.as_os_str(),
-        "-o".as_ref(),
-        png.as_os_str(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    ember_denoise(&input_path, &png);
     let read = Image::load(&png).unwrap();
     assert_eq!((read.width, read.height), (32, 24));
     let hdr = dir.path().join("clean.hdr");
-    let run = ember(&[
-        "denoise".as_ref(),
-        input_path.as_os_str(),
-        "-o".as_ref(),
-        hdr.as_os_str(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    ember_denoise(&input_path, &hdr);
     assert!(rel_mse(&Image::load(&hdr).unwrap(), &denoised) < 1e-4);
 }
 
@@ -521,17 +503,7 @@ fn ember_render_denoise_writes_the_denoised_and_the_noisy_image() {
     assert!(after < before / 4.0, "relMSE {before:.3e} -> {after:.3e}");
 
     let cli = dir.path().join("cli.exr");
-    let run = ember(&[
-        "denoise".as_ref(),
-        passes.as_os_str(),
-        "-o".as_ref(),
-        cli.as_os_str(),
-    ]);
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    ember_denoise(&passes, &cli);
     assert_eq!(
         LayeredImage::read_exr(&cli).unwrap().main_image().unwrap(),
         main
