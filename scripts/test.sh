@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Runs every check ember has: formatting, lints, the whole test suite against the
-# system's Embree, a split render on a one-node Slurm cluster (scripts/slurm/test.sh,
+# system's Embree (with denoising through the Open Image Denoise that scripts/setup.sh
+# provides: tests/denoise.rs), a split render on a one-node Slurm cluster (scripts/slurm/test.sh,
 # as root: it installs Debian's munge and slurm packages), a bounded fuzzing run, the
 # FFI wrapper under valgrind, and the Embree tests again against Embree 4 (built from
 # ../shared/embree4/setup.sh when that rig is beside the repository).

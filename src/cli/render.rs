@@ -304,9 +304,15 @@ impl RenderPlan {
             .checked_mul(u64::from(self.settings.spp))
             .context("width × height × spp overflows")?;
         let (w, h) = (self.settings.width, self.settings.height);
+        // Denoising runs once the render is done, beside the film.
+        let denoise = if self.denoise {
+            ember::denoise::memory_bytes(w, h)
+        } else {
+            0
+        };
         ember::limits::check_fits(
             &format!("a {w}x{h} image"),
-            render::render_memory_bytes(w, h),
+            render::render_memory_bytes(w, h) + denoise,
         )
         .map_err(anyhow::Error::msg)
     }
