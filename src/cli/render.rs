@@ -13,8 +13,6 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use signal_hook::consts::{SIGINT, SIGTERM};
-use signal_hook::iterator::Signals;
 
 use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
@@ -532,7 +530,8 @@ fn finish_render<A: Accel>(
         Film::new(s.width, s.height, plan.samples.clone())
     };
     let header = plan.header(identity);
-    let stop = stop_on_signals()?;
+    // From here on Ctrl-C or SIGTERM stops the workers and writes what there is.
+    let stop = super::stop_on_signals()?;
     let save_checkpoint = |film: &Film| -> Result<()> {
         checkpoint::save(&plan.checkpoint, &header, film).context("cannot write the checkpoint")
     };
@@ -601,26 +600,6 @@ fn write_both(
     })
 }
 
-/// From here on Ctrl-C or SIGTERM stops the workers and writes what there is. Later
-/// signals only count: GNU `timeout` and Slurm signal the whole process group, often
-/// more than once, and the save the first signal started must complete (a write is
-/// atomic, but an exit half-way would leave its temporary file). SIGKILL still ends
-/// ember at once. (Before this, the default action ends the process: there is nothing
-/// to save yet.) The returned flag holds the first signal's number once one came.
-fn stop_on_signals() -> Result<Arc<AtomicUsize>> {
-    let stop = Arc::new(AtomicUsize::new(0));
-    let mut signals =
-        Signals::new([SIGINT, SIGTERM]).context("cannot install the signal handlers")?;
-    let first = stop.clone();
-    // Signals arrive here in order: the first one's number stays in `stop`.
-    std::thread::spawn(move || {
-        for signal in signals.forever() {
-            let _ = first.compare_exchange(0, signal as usize, Ordering::SeqCst, Ordering::SeqCst);
-        }
-    });
-    Ok(stop)
-}
-
 fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
     let report = &loaded.report;
     for warning in &report.warnings {
@@ -681,11 +660,7 @@ fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_bytes: 
 }
 
 fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
-    let name = if signal == SIGTERM as usize {
-        "SIGTERM"
-    } else {
-        "SIGINT"
-    };
+    let name = super::signal_name(signal);
     let image = match plan.shard {
         None => format!(
             "the partial image {} and ",
