@@ -5,13 +5,12 @@
 mod common;
 
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 use common::{with_embree, Built};
 use ember::film::Film;
 use ember::image::{compare, Image};
 use ember::integrator::IntegratorKind;
-use ember::render::{render_progressive, Adaptive, RenderControl, RenderSettings};
+use ember::render::{Adaptive, RenderSettings};
 use ember::scene::{load_obj, Camera, CameraSettings};
 use glam::Vec3;
 
@@ -50,28 +49,14 @@ fn run(
     threads: usize,
     stop_after: Option<u64>,
 ) -> Film {
-    let stop = AtomicUsize::new(0);
-    let taken = AtomicU64::new(0);
-    let on_samples = |n: u64| {
-        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
-        if stop_after.is_some_and(|limit| total >= limit) {
-            stop.store(2, Ordering::Relaxed);
-        }
-    };
-    let control = RenderControl {
-        stop: &stop,
-        on_samples: &on_samples,
-        first_pass_spp: 1,
-        checkpoint: None,
-        deadline: None,
-        on_pass: &|_| {},
-    };
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(threads)
         .build()
         .unwrap();
     let camera = camera(s.width);
-    pool.install(|| render_progressive(&built.scene, &built.accel, &camera, s, film, &control).0)
+    pool.install(|| {
+        common::render_stopping(&built.scene, &built.accel, &camera, s, film, 1, stop_after)
+    })
 }
 
 fn cornell(name: &str) -> Built {
