@@ -2,12 +2,19 @@
 //! crate's safe API, on OIDN's CPU device.
 //!
 //! The colour goes through OIDN's `RT` filter (the one trained on Monte Carlo renders) as
-//! HDR radiance. Given albedo and normal passes (the first non-delta hit's), those guide
-//! it, and are first denoised themselves, each by an `RT` filter of its own, so that the
-//! main filter may take them as noise-free (`cleanAux`): OIDN's recipe for final frames.
-//! The crate's safe API sets a filter's colour input always, so a pass is prefiltered
-//! as an LDR colour image (albedo as it is, normals mapped from [-1, 1] to [0, 1] and
-//! back) rather than through OIDN's auxiliary-only mode.
+//! HDR radiance, guided, when given, by the albedo and normal passes of the first
+//! non-delta hit, which keep edges and texture sharp. The passes are given as they are,
+//! in OIDN's mode for auxiliary images that may hold some noise (a pixel's samples
+//! average them, but behind glass, or where surfaces meet inside a pixel, they vary).
+//!
+//! Not done: OIDN's final-frame recipe, denoising each pass first (a filter with only
+//! `albedo` or `normal` set) and then declaring them clean (`cleanAux`). The `oidn`
+//! crate 2.5.1's safe API cannot express it: a filter's colour input is always set, and
+//! its `clean_aux(true)` sets a parameter named `clean_aux`, which OIDN ignores ("unknown
+//! filter parameter" with OIDN_VERBOSE=2; the parameter is `cleanAux`). Measured through
+//! OIDN's C API in a throwaway test (256x256, 16 spp, relMSE against the shipped
+//! references), the recipe did not pay on the Cornell boxes: Original 3.0e-4 against
+//! 2.65e-4 with the passes as they are, GlossyMix 1.04e-3 against 1.075e-3.
 //!
 //! Without the `denoise` feature ember has no OIDN, and every call here says how to get
 //! it.
@@ -39,6 +46,9 @@ pub enum DenoiseError {
     },
     #[error("the image is empty ({0}x{1})")]
     Empty(u32, u32),
+    /// The machine (or EMBER_MEMORY_LIMIT) has less memory than denoising needs.
+    #[error("{0}")]
+    Memory(String),
     /// OIDN's own error: its kind and message.
     #[error("Open Image Denoise failed ({kind}): {message}")]
     Oidn { kind: &'static str, message: String },
@@ -54,6 +64,18 @@ pub struct DenoiserInfo {
     pub device: &'static str,
 }
 
+/// Bytes of memory denoising a `width × height` image takes: OIDN's scratch memory
+/// (measured with OIDN_VERBOSE=2: 1.21 GB at 1920×1080, 582 bytes a pixel; above about
+/// 2.6 GB OIDN splits the image into tiles, as at 3840×2160) and the colour, the guides
+/// and the output, each as ember's image and as OIDN's buffer.
+pub fn memory_bytes(width: u32, height: u32) -> u64 {
+    const SCRATCH_PER_PIXEL: u64 = 600;
+    const SCRATCH_MAX: u64 = 2800 << 20;
+    const IMAGES_PER_PIXEL: u64 = 4 * 2 * 12;
+    let pixels = u64::from(width) * u64::from(height);
+    (pixels * SCRATCH_PER_PIXEL).min(SCRATCH_MAX) + pixels * IMAGES_PER_PIXEL
+}
+
 /// Denoises `color` (linear HDR radiance), guided by `(albedo, normal)` when given.
 /// Input with a NaN or infinity anywhere is refused: OIDN would spread it.
 pub fn denoise(color: &Image, aux: Option<(&Image, &Image)>) -> Result<Image, DenoiseError> {
@@ -61,6 +83,9 @@ pub fn denoise(color: &Image, aux: Option<(&Image, &Image)>) -> Result<Image, De
         return Err(DenoiseError::Empty(color.width, color.height));
     }
     check_finite("colour", color)?;
+    let (w, h) = (color.width, color.height);
+    crate::limits::check_fits(&format!("denoising a {w}x{h} image"), memory_bytes(w, h))
+        .map_err(DenoiseError::Memory)?;
     if let Some((albedo, normal)) = aux {
         for (pass, image) in [("albedo", albedo), ("normal", normal)] {
             if (image.width, image.height) != (color.width, color.height) {
@@ -138,21 +163,12 @@ mod oidn_filter {
         let mut filter = oidn::RayTracing::try_new(&device)?;
         filter.hdr(true).image_dimensions(w, h);
         if let Some((albedo, normal)) = aux {
-            let albedo = prefilter(&device, albedo, |c| c.clamp(Vec3::ZERO, Vec3::ONE), |c| c)?;
-            let normal = prefilter(
-                &device,
-                normal,
-                |n| (n * 0.5 + 0.5).clamp(Vec3::ZERO, Vec3::ONE),
-                |c| c * 2.0 - 1.0,
+            filter.albedo_normal_buffer(
+                device.create_buffer(&flatten(albedo))?,
+                device.create_buffer(&flatten(normal))?,
             )?;
-            filter
-                .albedo_normal_buffer(
-                    device.create_buffer(&albedo)?,
-                    device.create_buffer(&normal)?,
-                )?
-                .clean_aux(true);
         }
-        let mut pixels = flatten(color, |c| c);
+        let mut pixels = flatten(color);
         filter.filter_in_place(&mut pixels)?;
         Ok(Image {
             width: color.width,
@@ -161,33 +177,9 @@ mod oidn_filter {
         })
     }
 
-    /// A pass denoised by an `RT` filter of its own, as an LDR image: `to_unit` maps
-    /// it into [0, 1], `from_unit` back.
-    fn prefilter(
-        device: &oidn::Device,
-        pass: &Image,
-        to_unit: impl Fn(Vec3) -> Vec3,
-        from_unit: impl Fn(Vec3) -> Vec3,
-    ) -> Result<Vec<f32>, DenoiseError> {
-        let mut filter = oidn::RayTracing::try_new(device)?;
-        filter
-            .hdr(false)
-            .image_dimensions(pass.width as usize, pass.height as usize);
-        let mut data = flatten(pass, to_unit);
-        filter.filter_in_place(&mut data)?;
-        for c in data.chunks_exact_mut(3) {
-            c.copy_from_slice(&from_unit(Vec3::from_slice(c)).to_array());
-        }
-        Ok(data)
-    }
-
-    /// Pixels as OIDN's interleaved `FLOAT3`, each through `map`.
-    fn flatten(image: &Image, map: impl Fn(Vec3) -> Vec3) -> Vec<f32> {
-        image
-            .pixels
-            .iter()
-            .flat_map(|&p| map(p).to_array())
-            .collect()
+    /// Pixels as OIDN's interleaved `FLOAT3`.
+    fn flatten(image: &Image) -> Vec<f32> {
+        image.pixels.iter().flat_map(|p| p.to_array()).collect()
     }
 }
 

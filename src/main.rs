@@ -70,7 +70,7 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => cli::render::run(args),
-        Command::Merge(args) => cli::merge::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Merge(args) => cli::merge::run(args),
         Command::Denoise(args) => cli::denoise::run(args).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => cli::bench::run(args).map(|()| ExitCode::SUCCESS),
         Command::Compare(args) => cli::misc::compare(args).map(|()| ExitCode::SUCCESS),

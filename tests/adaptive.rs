@@ -6,7 +6,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
-use common::{render_stopping_after, with_embree, Built};
+use common::{with_embree, Built};
 use ember::film::Film;
 use ember::image::{compare, Image};
 use ember::integrator::IntegratorKind;
@@ -55,7 +55,9 @@ fn run(
         .build()
         .unwrap();
     let camera = camera(s.width);
-    pool.install(|| render_stopping_after(&built.scene, &built.accel, &camera, s, film, stop_after))
+    pool.install(|| {
+        common::render_stopping(&built.scene, &built.accel, &camera, s, film, 1, stop_after)
+    })
 }
 
 fn cornell(name: &str) -> Built {
@@ -214,4 +216,47 @@ fn adaptive_shards_merge_into_one_image_with_the_samples_of_both() {
     // Each shard took at least --min-spp (32) of its 64 samples in every pixel.
     assert!(spp.iter().all(|&n| (64.0..=128.0).contains(&n)), "{spp:?}");
     assert!(spp.iter().any(|&n| n < 128.0), "some pixels converged");
+}
+
+/// `--time-limit` ends a render that would take far longer, writes its image (not a
+/// partial one) and says what it reached.
+#[test]
+fn a_time_limit_ends_the_render_and_reports_what_it_reached() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("t.exr");
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_ember"))
+        .arg("render")
+        .arg(repo("meshes/CornellBox-Original.obj"))
+        .args([
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--spp",
+            "1000000",
+            "--time-limit",
+            "0.5",
+        ])
+        .args(["--noise-threshold", "0.0001", "--aov", "spp", "-o"])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let log = String::from_utf8_lossy(&run.stderr);
+    assert!(run.status.success(), "{log}");
+    let summary = log
+        .lines()
+        .find(|l| l.starts_with("wrote"))
+        .expect("a summary line");
+    assert!(
+        summary.contains("(min/mean/max)") && summary.contains("converged"),
+        "{summary}"
+    );
+    let layers = ember::image::layers::LayeredImage::read_exr(&out).unwrap();
+    let spp = &layers.layer("spp").unwrap().data;
+    let (lo, hi) = spp
+        .iter()
+        .fold((f32::MAX, 0.0f32), |(a, b), &n| (a.min(n), b.max(n)));
+    // Far short of --spp; and passes sized to the limit leave pixels close in samples.
+    assert!(hi < 1_000_000.0 && lo >= 1.0, "{lo}..{hi}");
+    assert!(!dir.path().join("t.partial.exr").exists());
 }

@@ -10,7 +10,7 @@ use std::process::{Command, Output};
 use std::sync::atomic::AtomicUsize;
 
 use common::stats::{check_density, chi_square, Binning, Density};
-use common::{build, diffuse, inward_cube, quad, render_stopping_after, Built};
+use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
@@ -282,7 +282,7 @@ fn guided_render_is_the_same_at_any_thread_count() {
 
 fn run_film(built: &Built, settings: &RenderSettings, film: Film, stop: Option<u64>) -> Film {
     let camera = inside_camera(settings.width);
-    render_stopping_after(&built.scene, &built.accel, &camera, settings, film, stop)
+    render_stopping(&built.scene, &built.accel, &camera, settings, film, 1, stop)
 }
 
 /// Every process trains the same guide before rendering: a guided render stopped and

@@ -2,8 +2,10 @@
 //! mid-pixel) and resuming it, through a checkpoint file or not, gives the image of an
 //! uninterrupted render bit for bit.
 
+mod common;
+
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicUsize;
 use std::time::Duration;
 
 use ember::accel::{AccelKind, EmbreeAccel};
@@ -55,35 +57,17 @@ fn fixture() -> Fixture {
     }
 }
 
-/// Renders from `progress`, stopping once `stop_after` more samples were taken (the
-/// stop flag is checked before each sample, so this lands inside tiles and pixels).
+/// Renders from `progress`, stopping once `stop_after` more samples were taken.
 fn run(f: &Fixture, progress: Film, first_pass_spp: u32, stop_after: Option<u64>) -> Film {
-    let stop = AtomicUsize::new(0);
-    let taken = AtomicU64::new(0);
-    let on_samples = |n: u64| {
-        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
-        if stop_after.is_some_and(|limit| total >= limit) {
-            stop.store(2, Ordering::Relaxed);
-        }
-    };
-    let control = RenderControl {
-        stop: &stop,
-        on_samples: &on_samples,
-        first_pass_spp,
-        checkpoint: None,
-        deadline: None,
-        on_pass: &|_| {},
-    };
-    let (progress, stats) = render_progressive(
+    common::render_stopping(
         &f.scene,
         &f.accel,
         &f.camera,
         &f.settings,
         progress,
-        &control,
-    );
-    assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
-    progress
+        first_pass_spp,
+        stop_after,
+    )
 }
 
 fn identity_of(scene: &Scene, camera: &CameraSettings, settings: &RenderSettings) -> Identity {

@@ -43,8 +43,10 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
             layer(&input, &args.input, names::NORMAL, names::XYZ)?,
         ))
     };
+    let filter_start = Instant::now();
     let denoised = denoise::denoise(&color, aux.as_ref().map(|(a, n)| (a, n)))
         .map_err(|e| anyhow!("{}: {e}", args.input.display()))?;
+    let filter_seconds = filter_start.elapsed().as_secs_f64();
     if OutputFormat::from_path(&args.output)? == OutputFormat::Exr {
         let mut output = input;
         output.set(Layer::from_image(names::NOISY, names::RGB, &color));
@@ -54,7 +56,7 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
         denoised.save_with(&args.output, &args.tone.into())?;
     }
     eprintln!(
-        "denoised {} ({}x{}, {}) into {} in {:.2} s",
+        "denoised {} ({}x{}, {}) into {} in {:.2} s ({filter_seconds:.2} s in OIDN)",
         args.input.display(),
         color.width,
         color.height,

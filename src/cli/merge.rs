@@ -1,6 +1,8 @@
 //! `ember merge`: shards of a split render into one image.
 
 use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use anyhow::Result;
@@ -33,7 +35,7 @@ pub struct MergeArgs {
     tone: super::ToneArgs,
 }
 
-pub fn run(args: MergeArgs) -> Result<()> {
+pub fn run(args: MergeArgs) -> Result<ExitCode> {
     super::render::check_image_output(&args.output, &args.aov, args.denoise)?;
     let start = Instant::now();
     let (film, report) = merge::merge(&args.shards, args.allow_partial)?;
@@ -54,6 +56,8 @@ pub fn run(args: MergeArgs) -> Result<()> {
         denoise: args.denoise,
         tonemap: &args.tone.into(),
     };
+    // A signal now would cut the write short and leave its temporary file: it waits.
+    let stop = super::stop_on_signals()?;
     output.write(&film, &args.output)?;
     eprintln!(
         "merged {} shards ({}x{}, {} spp) into {} in {:.2} s",
@@ -64,5 +68,15 @@ pub fn run(args: MergeArgs) -> Result<()> {
         args.output.display(),
         start.elapsed().as_secs_f64()
     );
-    Ok(())
+    match stop.load(Ordering::SeqCst) {
+        0 => Ok(ExitCode::SUCCESS),
+        signal => {
+            eprintln!(
+                "interrupted by {} while writing {}: it was completed first",
+                super::signal_name(signal),
+                args.output.display()
+            );
+            Ok(ExitCode::from((128 + signal).min(255) as u8))
+        }
+    }
 }

@@ -5,7 +5,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -13,7 +13,6 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use signal_hook::consts::{SIGINT, SIGTERM};
 
 use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
@@ -30,6 +29,10 @@ use ember::render::{
 };
 use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
 
+/// clap's ranges take `i64`.
+const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
+const MAX_SPP: i64 = ember::limits::MAX_SPP as i64;
+
 #[derive(Args)]
 pub struct RenderArgs {
     /// The OBJ scene (its MTL libraries and textures are read from beside it).
@@ -44,13 +47,13 @@ pub struct RenderArgs {
     #[arg(long, value_name = "I/N", value_parser = parse_shard, requires = "output", conflicts_with = "checkpoint")]
     shard: Option<(u32, u32)>,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     height: u32,
     /// Samples per pixel (with --noise-threshold or --time-limit, the most any pixel takes).
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
     spp: u32,
     /// Adaptive sampling: after each pass, a pixel goes on only while its estimated
     /// relative error (standard error over sqrt(mean² + 0.01), as `ember compare`'s
@@ -60,7 +63,7 @@ pub struct RenderArgs {
     noise_threshold: Option<f32>,
     /// With --noise-threshold, the samples a pixel takes before it may stop
     /// [default: 32, or --spp if fewer].
-    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
     min_spp: Option<u32>,
     /// Render passes until SECONDS have gone by (from the start of rendering), then
     /// write the image; earlier if --spp or --noise-threshold is reached first.
@@ -155,6 +158,11 @@ fn partial_output(output: &Path) -> PathBuf {
         .map(|e| e.to_string_lossy().into_owned())
         .unwrap_or_default();
     output.with_extension(format!("partial.{ext}"))
+}
+
+/// Whether two paths name one file (the same path, or links to one existing file).
+fn same_file(a: &Path, b: &Path) -> bool {
+    a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
 fn default_checkpoint(output: &Path) -> PathBuf {
@@ -289,14 +297,7 @@ impl RenderPlan {
     /// Refuses what can be refused before loading anything: an unwritable or unknown
     /// output, bad environment, a missing checkpoint, an image too large for memory.
     fn check(&self) -> Result<()> {
-        if self.shard.is_some() {
-            ember::io::check_writable(&self.output)?;
-            if self.denoise || !self.aovs.is_empty() {
-                bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
-            }
-        } else {
-            check_image_output(&self.output, &self.aovs, self.denoise)?;
-        }
+        self.check_outputs()?;
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
         if self.settings.guiding.is_some() && self.settings.integrator != IntegratorKind::Mis {
@@ -317,11 +318,40 @@ impl RenderPlan {
             .checked_mul(u64::from(self.settings.spp))
             .context("width × height × spp overflows")?;
         let (w, h) = (self.settings.width, self.settings.height);
+        // Denoising runs once the render is done, beside the film.
+        let denoise = if self.denoise {
+            ember::denoise::memory_bytes(w, h)
+        } else {
+            0
+        };
         ember::limits::check_fits(
             &format!("a {w}x{h} image"),
-            render::render_memory_bytes(w, h),
+            render::render_memory_bytes(w, h) + denoise,
         )
         .map_err(anyhow::Error::msg)
+    }
+
+    /// Every file this run may write, checked before any work: the image and the
+    /// partial image an interruption leaves (whole renders; their `--aov` passes are
+    /// layers of the same EXR), and the checkpoint (or the shard file, which is its own
+    /// checkpoint). An interruption may come at any time,
+    /// so the partial image and the checkpoint are checked even when none is asked for.
+    fn check_outputs(&self) -> Result<()> {
+        if self.shard.is_some() && (self.denoise || !self.aovs.is_empty()) {
+            bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
+        }
+        if self.shard.is_none() {
+            check_image_output(&self.output, &self.aovs, self.denoise)?;
+            check_image_output(&partial_output(&self.output), &self.aovs, self.denoise)?;
+            if same_file(&self.checkpoint, &self.output) {
+                bail!(
+                    "the checkpoint {} would overwrite the image: give another --checkpoint",
+                    self.checkpoint.display()
+                );
+            }
+        }
+        ember::io::check_writable(&self.checkpoint)?;
+        Ok(())
     }
 
     /// The header of this render's checkpoints or shard file.
@@ -516,7 +546,8 @@ fn finish_render<A: Accel>(
         Film::new(s.width, s.height, plan.samples.clone())
     };
     let header = plan.header(identity);
-    let stop = stop_on_signals()?;
+    // From here on Ctrl-C or SIGTERM stops the workers and writes what there is.
+    let stop = super::stop_on_signals()?;
     let save_checkpoint = |film: &Film| -> Result<()> {
         checkpoint::save(&plan.checkpoint, &header, film).context("cannot write the checkpoint")
     };
@@ -535,23 +566,27 @@ fn finish_render<A: Accel>(
     let (film, stats, passes) =
         pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
 
+    let write_image = |path: &Path| write_film_image(plan, &film, path);
+    let write_checkpoint = || save_checkpoint(&film);
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
-        if plan.shard.is_none() {
-            write_image(plan, &film, &partial_output(&plan.output))?;
+        let partial = partial_output(&plan.output);
+        match plan.shard {
+            Some(_) => write_checkpoint()?,
+            None => write_both(&partial, || write_image(&partial), write_checkpoint)?,
         }
-        save_checkpoint(&film)?;
         report_interrupted(plan, &film, signal);
         return Ok(ExitCode::from((128 + signal).min(255) as u8));
     }
-    if plan.shard.is_some() {
-        save_checkpoint(&film)?;
-    } else {
-        write_image(plan, &film, &plan.output)?;
-        if plan.checkpoint_every.is_some() || plan.resume {
-            // Keep the final state: a later --resume with a higher --spp refines it.
-            save_checkpoint(&film)?;
+    // Keep the final state of a whole render with checkpoints: a later --resume with a
+    // higher --spp refines it.
+    let keep_checkpoint = plan.checkpoint_every.is_some() || plan.resume;
+    match plan.shard {
+        Some(_) => write_checkpoint()?,
+        None if keep_checkpoint => {
+            write_both(&plan.output, || write_image(&plan.output), write_checkpoint)?
         }
+        None => write_image(&plan.output)?,
     }
     report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
     Ok(ExitCode::SUCCESS)
@@ -559,7 +594,7 @@ fn finish_render<A: Accel>(
 
 /// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
 /// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
-fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
+fn write_film_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
     let output = FilmOutput {
         aovs: &plan.aovs,
         denoise: plan.denoise,
@@ -568,21 +603,17 @@ fn write_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
     Ok(output.write(film, path)?)
 }
 
-/// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second
-/// one exits at once. (Before, the default action ends the process: there is nothing
-/// to save yet.) The returned flag holds the signal's number once one came.
-fn stop_on_signals() -> Result<Arc<AtomicUsize>> {
-    let stop = Arc::new(AtomicUsize::new(0));
-    let stopping = Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
-        // The conditional shutdown runs first: on the first signal `stopping` is still
-        // false, so only the flags below are set.
-        signal_hook::flag::register_conditional_shutdown(signal, 128 + signal, stopping.clone())
-            .and_then(|_| signal_hook::flag::register(signal, stopping.clone()))
-            .and_then(|_| signal_hook::flag::register_usize(signal, stop.clone(), signal as usize))
-            .context("cannot install the signal handlers")?;
-    }
-    Ok(stop)
+/// Writes the image at `image` and then the checkpoint; when the checkpoint fails, the
+/// image is removed again: a run that fails leaves no file behind.
+fn write_both(
+    image: &Path,
+    write_image: impl FnOnce() -> Result<()>,
+    write_checkpoint: impl FnOnce() -> Result<()>,
+) -> Result<()> {
+    write_image()?;
+    write_checkpoint().inspect_err(|_| {
+        let _ = std::fs::remove_file(image);
+    })
 }
 
 fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
@@ -645,11 +676,7 @@ fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_bytes: 
 }
 
 fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
-    let name = if signal == SIGTERM as usize {
-        "SIGTERM"
-    } else {
-        "SIGINT"
-    };
+    let name = super::signal_name(signal);
     let image = match plan.shard {
         None => format!(
             "the partial image {} and ",

@@ -93,6 +93,8 @@ pub enum CheckpointError {
     },
     #[error("{path} already has {done} samples per pixel, more than --spp {spp}")]
     PastTarget { path: PathBuf, done: u32, spp: u32 },
+    #[error("{path}: {reason}")]
+    TooLarge { path: PathBuf, reason: String },
     #[error(transparent)]
     Write(#[from] WriteError),
 }
@@ -188,7 +190,9 @@ pub fn save(path: &Path, header: &Header, film: &Film) -> Result<(), CheckpointE
     Ok(io::write_atomically(path, &encode(header, film))?)
 }
 
-/// A film file opened for reading: its header is read and checked for form; the pixels
+/// A film file opened for reading: the one reader of shards and checkpoints (`ember
+/// merge` and `--resume` alike), which trusts nothing in the file. Its header is read
+/// and checked whole ([`check_header`]) before anything is allocated from it; the pixels
 /// follow one by one ([`FilmReader::read_pixels`]), hashed as they go, so that a large
 /// file is never held in memory whole.
 pub struct FilmReader {
@@ -215,14 +219,16 @@ impl FilmReader {
         let mut json = vec![0; json_len as usize];
         reader.read_hashed(&mut json)?;
         reader.header = parse_header(&json).map_err(|reason| reader.invalid(&reason))?;
-        let h = &reader.header;
-        let pixels = u64::from(h.width) * u64::from(h.height);
-        let expected = 16 + u64::from(json_len) + pixels * PIXEL_BYTES as u64 + 8;
-        if file_len != expected {
-            return Err(reader.invalid(&format!(
-                "{file_len} bytes where its header promises {expected} (truncated or damaged)"
-            )));
-        }
+        check_header(&reader.header, json_len, file_len).map_err(|r| reader.invalid(&r))?;
+        let (w, h) = (reader.header.width, reader.header.height);
+        crate::limits::check_fits(
+            &format!("the {w}x{h} film it holds"),
+            crate::render::render_memory_bytes(w, h),
+        )
+        .map_err(|reason| CheckpointError::TooLarge {
+            path: path.to_owned(),
+            reason,
+        })?;
         Ok(reader)
     }
 
@@ -261,8 +267,9 @@ impl FilmReader {
         }
     }
 
-    /// Calls `add(i, pixel)` for every pixel in order, then checks the hash: on an
-    /// error, what `add` received must be thrown away.
+    /// Calls `add(i, pixel)` for every pixel in order, then checks the hash and the
+    /// header's claims against the pixels: on an error, what `add` received must be
+    /// thrown away.
     pub fn read_pixels(
         mut self,
         mut add: impl FnMut(usize, &PixelSums),
@@ -270,6 +277,7 @@ impl FilmReader {
         let pixels = self.header.width as usize * self.header.height as usize;
         let range_len = self.header.samples.len() as u32;
         let mut chunk = vec![0u8; PIXEL_BYTES * 4096];
+        let mut tally = PixelTally::new();
         let mut i = 0;
         while i < pixels {
             let n = (pixels - i).min(4096);
@@ -280,7 +288,10 @@ impl FilmReader {
             self.hasher.update(bytes);
             for px in bytes.chunks_exact(PIXEL_BYTES) {
                 match decode_pixel(px) {
-                    Some(p) if p.done <= range_len => add(i, &p),
+                    Some(p) if p.done <= range_len => {
+                        tally.add(i, &p, &self.header);
+                        add(i, &p)
+                    }
                     _ => return Err(self.invalid(&format!("inconsistent data at pixel {i}"))),
                 }
                 i += 1;
@@ -293,21 +304,17 @@ impl FilmReader {
         if self.hasher.digest() != u64::from_le_bytes(stored) {
             return Err(self.invalid("checksum mismatch (damaged)"));
         }
-        Ok(())
+        match tally.disagreement(&self.header) {
+            Some(reason) => Err(self.invalid(&reason)),
+            None => Ok(()),
+        }
     }
 
     /// The whole film, checked.
     pub fn read_film(self) -> Result<Film, CheckpointError> {
         let h = &self.header;
         let mut film = Film::new(h.width, h.height, h.samples.clone());
-        let (path, min_done, complete) = (self.path.clone(), h.min_done, h.complete);
         self.read_pixels(|i, p| film.pixels[i] = *p)?;
-        if film.min_done() != min_done || film.is_complete() != complete {
-            return Err(CheckpointError::Invalid {
-                path,
-                reason: "the header's sample count disagrees with the pixels".into(),
-            });
-        }
         Ok(film)
     }
 }
@@ -354,13 +361,134 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
             .and_then(Value::as_bool)
             .ok_or("header lacks complete")?,
     };
-    if start > end || end > header.spp || header.min_done > end - start {
-        return Err("inconsistent sample range".into());
-    }
-    if header.shard.is_some_and(|(i, n)| i >= n) {
-        return Err("bad shard number".into());
-    }
     Ok(header)
+}
+
+/// The length of a film file of `pixels` pixels whose JSON header is `json_len` bytes:
+/// preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
+fn file_len_for(json_len: u32, pixels: u64) -> Option<u64> {
+    pixels
+        .checked_mul(PIXEL_BYTES as u64)?
+        .checked_add(16 + u64::from(json_len) + 8)
+}
+
+/// Checks what a header claims before anything is read or allocated from it: its size
+/// against the identity it carries and ember's limits, its sample range against its
+/// spp and shard number, its sample counts against its range, and the file's length
+/// against the size (with checked arithmetic). What the pixels must then agree with
+/// is checked as they are read ([`FilmReader::read_pixels`]).
+fn check_header(h: &Header, json_len: u32, file_len: u64) -> Result<(), String> {
+    use crate::limits::{MAX_IMAGE_SIDE, MAX_SHARDS, MAX_SPP};
+    for (key, value) in [("width", h.width), ("height", h.height)] {
+        if !(1..=MAX_IMAGE_SIDE).contains(&value) {
+            return Err(format!("its {key} {value} is outside 1..={MAX_IMAGE_SIDE}"));
+        }
+        let carried = h.identity.iter().find(|(k, _)| k == key);
+        let carried = carried.map_or("none", |(_, v)| v.as_str());
+        if carried != value.to_string() {
+            return Err(format!(
+                "its {key} {value} disagrees with the {key} {carried} of the render it names"
+            ));
+        }
+    }
+    if !(1..=MAX_SPP).contains(&h.spp) {
+        return Err(format!("its spp {} is outside 1..={MAX_SPP}", h.spp));
+    }
+    let expected = match h.shard {
+        Some((i, n)) if i >= n || n > MAX_SHARDS => {
+            return Err(format!(
+                "shard {i}/{n} is not one of 0/N .. N-1/N, N ≤ {MAX_SHARDS}"
+            ))
+        }
+        Some(shard) => super::shard_samples(h.spp, shard),
+        None => 0..h.spp,
+    };
+    if h.samples != expected {
+        return Err(format!(
+            "as {} of {} spp it would hold samples {expected:?}, but it claims samples {:?}",
+            h.label(),
+            h.spp,
+            h.samples
+        ));
+    }
+    let len = h.samples.len() as u32;
+    if h.min_done > len || (h.min_done == len && !h.complete) {
+        return Err(format!(
+            "it claims {} samples in every pixel of its {len}, and to be {}",
+            h.min_done,
+            if h.complete { "complete" } else { "incomplete" }
+        ));
+    }
+    let pixels = u64::from(h.width) * u64::from(h.height);
+    match file_len_for(json_len, pixels) {
+        Some(expected) if expected == file_len => Ok(()),
+        expected => Err(format!(
+            "{file_len} bytes where its {}x{} header promises {} (truncated or damaged)",
+            h.width,
+            h.height,
+            expected.map_or("more than 2^64".into(), |n| n.to_string())
+        )),
+    }
+}
+
+/// What the pixels of a film file hold, against which its header's claims are
+/// checked once they are all read.
+struct PixelTally {
+    /// The fewest samples any pixel has.
+    fewest: u32,
+    /// The first pixel with fewer samples than the header claims for all: (index, done).
+    short: Option<(usize, u32)>,
+    /// The first pixel neither finished nor stopped by adaptive sampling.
+    unfinished: Option<(usize, u32)>,
+}
+
+impl PixelTally {
+    fn new() -> Self {
+        PixelTally {
+            fewest: u32::MAX,
+            short: None,
+            unfinished: None,
+        }
+    }
+
+    fn add(&mut self, i: usize, p: &PixelSums, header: &Header) {
+        self.fewest = self.fewest.min(p.done);
+        if p.done < header.min_done && self.short.is_none() {
+            self.short = Some((i, p.done));
+        }
+        if !p.converged && p.done < header.samples.len() as u32 && self.unfinished.is_none() {
+            self.unfinished = Some((i, p.done));
+        }
+    }
+
+    /// Why the header's claims ("every pixel has at least `min_done` samples", and
+    /// "complete") disagree with the pixels, if they do.
+    fn disagreement(&self, h: &Header) -> Option<String> {
+        let at = |i: usize| (i as u32 % h.width, i as u32 / h.width);
+        let len = h.samples.len();
+        if let (true, Some((i, done))) = (h.complete, self.unfinished) {
+            let (x, y) = at(i);
+            return Some(format!(
+                "it claims to be complete, but pixel ({x}, {y}) has {done} of its {len} samples \
+                 and was not stopped by adaptive sampling"
+            ));
+        }
+        if let Some((i, done)) = self.short {
+            let (x, y) = at(i);
+            return Some(format!(
+                "it claims {} samples in every pixel, but pixel ({x}, {y}) has {done}",
+                h.min_done
+            ));
+        }
+        if self.fewest != h.min_done {
+            return Some(format!(
+                "it claims {} samples in every pixel, but every pixel has {} or more",
+                h.min_done, self.fewest
+            ));
+        }
+        (!h.complete && self.unfinished.is_none())
+            .then(|| "it claims to be incomplete, but every pixel is finished".into())
+    }
 }
 
 /// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours).

@@ -49,17 +49,13 @@ impl Adaptive {
     }
 }
 
-/// Which pixels of a `width × height` image (row by row) may stop now: those with
-/// `min_spp` samples or more whose 3×3 neighbourhood is all below the threshold.
-/// Pixels already stopped stay stopped.
-pub fn converged(pixels: &[PixelSums], width: u32, height: u32, adaptive: &Adaptive) -> Vec<bool> {
+/// Which pixels of a `width × height` image (row by row) lie in a calm neighbourhood:
+/// `error` (each pixel's [`PixelSums::relative_error`], 0 for a pixel already
+/// stopped) is at most `threshold` everywhere in their 5×5 window.
+pub fn calm(error: &[f64], width: u32, height: u32, threshold: f32) -> Vec<bool> {
     let (w, h) = (width as usize, height as usize);
-    let error: Vec<f64> = pixels
-        .iter()
-        .map(|p| if p.converged { 0.0 } else { p.relative_error() })
-        .collect();
-    // The largest error in each row's windows, then over the window's rows.
     let r = NEIGHBOURHOOD_RADIUS;
+    // The largest error in each row's windows, then over the window's rows.
     let mut across = vec![0.0f64; w * h];
     for y in 0..h {
         for x in 0..w {
@@ -67,17 +63,23 @@ pub fn converged(pixels: &[PixelSums], width: u32, height: u32, adaptive: &Adapt
             across[y * w + x] = row.iter().copied().fold(0.0, f64::max);
         }
     }
-    let threshold = f64::from(adaptive.threshold);
+    let threshold = f64::from(threshold);
     (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
             let worst = (y.saturating_sub(r)..(y + r + 1).min(h))
                 .map(|yy| across[yy * w + x])
                 .fold(0.0, f64::max);
-            let p = &pixels[i];
-            p.converged || (p.done >= adaptive.min_spp && worst <= threshold)
+            worst <= threshold
         })
         .collect()
+}
+
+impl Adaptive {
+    /// Whether a pixel may stop, given whether its neighbourhood is calm.
+    pub fn may_stop(&self, p: &PixelSums, calm: bool) -> bool {
+        p.converged || (calm && p.done >= self.min_spp)
+    }
 }
 
 #[cfg(test)]
@@ -115,15 +117,22 @@ mod tests {
         let (w, h) = (9, 7);
         let mut pixels = vec![pixel(64, 1.0, 1.0); w * h];
         pixels[2 * w + 3] = pixel(64, 0.0, 2.0); // error ≈ 0.124
-        let stop = converged(&pixels, w as u32, h as u32, &adaptive);
+        let error: Vec<f64> = pixels.iter().map(PixelSums::relative_error).collect();
+        let stop = calm(&error, w as u32, h as u32, adaptive.threshold);
         for y in 0..h {
             for x in 0..w {
                 let near = (x as i32 - 3).abs() <= 2 && (y as i32 - 2).abs() <= 2;
                 assert_eq!(stop[y * w + x], !near, "pixel ({x}, {y})");
             }
         }
-        // Below min_spp nothing stops, however flat.
-        let few = vec![pixel(4, 1.0, 1.0); 6];
-        assert!(converged(&few, 3, 2, &adaptive).iter().all(|&s| !s));
+        // Below min_spp nothing stops, however calm; a stopped pixel stays stopped.
+        assert!(!adaptive.may_stop(&pixel(4, 1.0, 1.0), true));
+        assert!(adaptive.may_stop(&pixel(8, 1.0, 1.0), true));
+        assert!(!adaptive.may_stop(&pixel(64, 1.0, 1.0), false));
+        let stopped = PixelSums {
+            converged: true,
+            ..pixel(2, 1.0, 1.0)
+        };
+        assert!(adaptive.may_stop(&stopped, false));
     }
 }

@@ -16,13 +16,13 @@ pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
 pub use training::train_guide;
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Condvar, Mutex};
+use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use crate::accel::Accel;
-use crate::film::{Film, FilmTile, Sample};
+use crate::film::{Film, FilmTile, PixelSums, Sample};
 use crate::guiding::{Guiding, GuidingStats};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
@@ -78,7 +78,9 @@ impl RenderStats {
 /// encoded output.
 pub fn render_memory_bytes(width: u32, height: u32) -> u64 {
     const FILM_PIXEL: u64 = std::mem::size_of::<crate::film::PixelSums>() as u64;
-    const PER_PIXEL: u64 = 2 * FILM_PIXEL + 3 * 8 + 12 + 2 * 13 * 4;
+    // The film and its tiles; adaptive sampling's error map, window maxima and calm
+    // flags; the image; up to 13 pass channels of f32 and their EXR encoding.
+    const PER_PIXEL: u64 = 2 * FILM_PIXEL + 8 + 8 + 1 + 12 + 2 * 13 * 4;
     u64::from(width) * u64::from(height) * PER_PIXEL
 }
 
@@ -115,21 +117,30 @@ pub struct PassReport {
 
 impl PassReport {
     pub fn of(film: &Film) -> PassReport {
-        let len = film.samples.len() as u32;
-        let pixels = &film.pixels;
-        let done = pixels.iter().map(|p| p.done);
-        PassReport {
-            remaining: pixels
-                .iter()
-                .filter(|p| !p.converged)
-                .map(|p| u64::from(len.saturating_sub(p.done)))
-                .sum(),
-            min_spp: done.clone().min().unwrap_or(0),
-            mean_spp: done.clone().map(f64::from).sum::<f64>() / pixels.len().max(1) as f64,
-            max_spp: done.max().unwrap_or(0),
-            converged: pixels.iter().filter(|p| p.converged).count(),
-            pixels: pixels.len(),
+        PassReport::of_pixels(film.pixels.iter(), film.samples.len() as u32)
+    }
+
+    /// The report of `pixels`, of a film whose range holds `len` samples.
+    fn of_pixels<'p>(pixels: impl Iterator<Item = &'p PixelSums>, len: u32) -> PassReport {
+        let mut report = PassReport {
+            min_spp: u32::MAX,
+            ..PassReport::default()
+        };
+        let mut total = 0u64;
+        for p in pixels {
+            report.min_spp = report.min_spp.min(p.done);
+            report.max_spp = report.max_spp.max(p.done);
+            total += u64::from(p.done);
+            report.pixels += 1;
+            if p.converged {
+                report.converged += 1;
+            } else {
+                report.remaining += u64::from(len.saturating_sub(p.done));
+            }
         }
+        report.min_spp = report.min_spp.min(report.max_spp);
+        report.mean_spp = total as f64 / report.pixels.max(1) as f64;
+        report
     }
 
     /// Fraction of the pixels adaptive sampling has stopped.
@@ -358,25 +369,44 @@ impl<A: Accel> Passes<'_, A> {
             .iter()
             .map(|t| t.lock().unwrap_or_else(|p| p.into_inner()))
             .collect();
+        let going = |tiles: &[MutexGuard<FilmTile>]| {
+            let mut counts = tiles
+                .iter()
+                .flat_map(|t| t.pixels.iter())
+                .filter(|p| !p.converged)
+                .map(|p| p.done);
+            let first = counts.next();
+            counts.all(|d| Some(d) == first)
+        };
+        if let (Some(adaptive), true) = (&self.settings.adaptive, going(&tiles)) {
+            self.decide(&mut tiles, adaptive);
+        }
+        PassReport::of_pixels(tiles.iter().flat_map(|t| t.pixels.iter()), count)
+    }
+
+    /// Stops the pixels adaptive sampling lets stop: the image's error map, its calm
+    /// neighbourhoods, and each pixel's own count.
+    fn decide(&self, tiles: &mut [MutexGuard<FilmTile>], adaptive: &Adaptive) {
         let (w, h) = (self.settings.width, self.settings.height);
-        let first = self.first_sample;
-        let mut film = Film::new(w, h, first..first + count);
-        for tile in &tiles {
-            film.write_tile(tile);
-        }
-        let mut going = film.pixels.iter().filter(|p| !p.converged).map(|p| p.done);
-        let first = going.next();
-        let at_pass_end = going.all(|d| Some(d) == first);
-        if let (Some(adaptive), true) = (&self.settings.adaptive, at_pass_end) {
-            let stop = adaptive::converged(&film.pixels, w, h, adaptive);
-            for (p, stop) in film.pixels.iter_mut().zip(stop) {
-                p.converged = stop;
-            }
-            for (tile, fresh) in tiles.iter_mut().zip(film.tiles(TILE_SIZE)) {
-                **tile = fresh;
+        let at = |(x0, y0, tw, _): (u32, u32, u32, u32), i: usize| {
+            let i = i as u32;
+            ((y0 + i / tw) * w + x0 + i % tw) as usize
+        };
+        let mut error = vec![0.0f64; w as usize * h as usize];
+        for tile in tiles.iter() {
+            for (i, p) in tile.pixels.iter().enumerate() {
+                if !p.converged {
+                    error[at(tile.rect, i)] = p.relative_error();
+                }
             }
         }
-        PassReport::of(&film)
+        let calm = adaptive::calm(&error, w, h, adaptive.threshold);
+        for tile in tiles.iter_mut() {
+            let rect = tile.rect;
+            for (i, p) in tile.pixels.iter_mut().enumerate() {
+                p.converged = adaptive.may_stop(p, calm[at(rect, i)]);
+            }
+        }
     }
 }
 

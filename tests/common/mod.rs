@@ -1,15 +1,11 @@
 //! Scenes built in code for the sampling and integrator tests.
 #![allow(dead_code)]
 
+pub mod fuzz;
 pub mod stats;
 
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-
-use ember::accel::{Accel, EmbreeAccel};
+use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
-use ember::film::Film;
-use ember::render::{render_progressive, RenderControl, RenderSettings};
-use ember::scene::Camera;
 use ember::scene::{Material, Scene, TriangleMesh};
 use glam::Vec3;
 
@@ -120,17 +116,20 @@ pub fn inward_cube(cells: u32, material: u32) -> Vec<([Vec3; 3], u32)> {
     tris
 }
 
-/// Renders `film` on with `settings` on the current rayon pool, asking the render to
-/// stop once `stop_after` samples were taken (the stop is seen before each sample, so
-/// this lands inside tiles and pixels).
-pub fn render_stopping_after<A: Accel>(
+/// Renders `film` on with `render_progressive` on the current rayon pool, stopping once
+/// `stop_after` more samples were taken (the stop flag is checked before each sample, so
+/// this lands inside tiles and pixels). Checks the reported sample count.
+#[allow(clippy::too_many_arguments)]
+pub fn render_stopping<A: ember::accel::Accel>(
     scene: &Scene,
     accel: &A,
-    camera: &Camera,
-    settings: &RenderSettings,
-    film: Film,
+    camera: &ember::scene::Camera,
+    settings: &ember::render::RenderSettings,
+    film: ember::film::Film,
+    first_pass_spp: u32,
     stop_after: Option<u64>,
-) -> Film {
+) -> ember::film::Film {
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
     let stop = AtomicUsize::new(0);
     let taken = AtomicU64::new(0);
     let on_samples = |n: u64| {
@@ -139,13 +138,16 @@ pub fn render_stopping_after<A: Accel>(
             stop.store(2, Ordering::Relaxed);
         }
     };
-    let control = RenderControl {
+    let control = ember::render::RenderControl {
         stop: &stop,
         on_samples: &on_samples,
-        first_pass_spp: 1,
+        first_pass_spp,
         checkpoint: None,
         deadline: None,
         on_pass: &|_| {},
     };
-    render_progressive(scene, accel, camera, settings, film, &control).0
+    let (film, stats) =
+        ember::render::render_progressive(scene, accel, camera, settings, film, &control);
+    assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
+    film
 }
