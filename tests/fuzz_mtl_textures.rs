@@ -241,15 +241,28 @@ impl Input {
     }
 }
 
-fn scene_path() -> PathBuf {
-    files().dir.path().join("scene.obj")
+/// A scene of its own for each thread: the fuzz target and the regression cases run
+/// at once, and one writing the shared `scene.mtl` while the other loads it made the
+/// other load a material it never wrote.
+fn scene_for_this_thread(mtl: &str) -> PathBuf {
+    let dir = files().dir.path();
+    let id = format!("{:?}", std::thread::current().id())
+        .replace(|c: char| !c.is_ascii_alphanumeric(), "");
+    let obj = std::fs::read_to_string(dir.join("scene.obj")).unwrap();
+    let own = dir.join(format!("scene-{id}.obj"));
+    std::fs::write(
+        &own,
+        obj.replace("mtllib scene.mtl", &format!("mtllib scene-{id}.mtl")),
+    )
+    .unwrap();
+    std::fs::write(dir.join(format!("scene-{id}.mtl")), mtl).unwrap();
+    own
 }
 
 /// Whether the input loaded (true) or was refused with an error.
 fn check(input: &Input) -> Result<bool, TestCaseError> {
     let mtl = input.mtl();
-    std::fs::write(files().dir.path().join("scene.mtl"), &mtl).unwrap();
-    match load_obj(&scene_path()) {
+    match load_obj(&scene_for_this_thread(&mtl)) {
         Err(e) => {
             let message = e.to_string();
             prop_assert!(!message.contains('\n'), "not one line: {message}");
