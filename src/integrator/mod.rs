@@ -181,12 +181,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// the render passes of its path: albedo and shading normal at the first vertex
     /// whose BSDF is not a delta (mirrors and glass are seen through, as Open Image
     /// Denoise asks), and the distance to the first hit.
+    #[inline]
     pub fn sample(&self, ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
         self.sample_recorded(ray, rng, count, &mut NoRecords)
     }
 
     /// [`sample`](Self::sample), telling `recorder` what the path finds at each vertex
     /// (the training of a guide).
+    #[inline]
     pub fn sample_recorded<R: PathRecorder>(
         &self,
         mut ray: Ray,
