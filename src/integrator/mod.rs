@@ -31,7 +31,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
-use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf};
+use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
 
@@ -86,19 +86,20 @@ enum EmissionWeight {
     Full,
     /// Not at all: the light sample at the previous vertex already counted it.
     Skip,
-    /// MIS weight of a BSDF sample drawn with this density against light sampling.
-    Mis { bsdf_pdf: f32 },
+    /// MIS weight of a BSDF sample drawn with this density against light sampling
+    /// from the receiver `from` (the vertex the ray left).
+    Mis { bsdf_pdf: f32, from: Receiver },
 }
 
 impl EmissionWeight {
     /// The weight of light met by the ray, given the density with which light
     /// sampling would have chosen the same direction (asked for only under MIS).
     #[inline]
-    fn weight(self, light_pdf: impl FnOnce() -> f32) -> f32 {
+    fn weight(self, light_pdf: impl FnOnce(Receiver) -> f32) -> f32 {
         match self {
             EmissionWeight::Full => 1.0,
             EmissionWeight::Skip => 0.0,
-            EmissionWeight::Mis { bsdf_pdf } => power_heuristic(bsdf_pdf, light_pdf()),
+            EmissionWeight::Mis { bsdf_pdf, from } => power_heuristic(bsdf_pdf, light_pdf(from)),
         }
     }
 }
@@ -112,6 +113,16 @@ struct Step {
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
     traced: Option<Option<Hit>>,
+}
+
+/// A surface point as light sampling sees it: where it is, and the shading normal
+/// whose cosine the scattered light carries.
+#[inline]
+fn receiver(surface: &SurfacePoint) -> Receiver {
+    Receiver {
+        p: surface.p,
+        n: surface.ns,
+    }
 }
 
 /// Veach's power heuristic (β = 2) for a sample of density `a` against density `b`.
@@ -193,7 +204,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
                 IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
                 IntegratorKind::Mis => {
-                    let pending = EmissionWeight::Mis { bsdf_pdf: 0.0 };
+                    let pending = EmissionWeight::Mis {
+                        bsdf_pdf: 0.0,
+                        from: receiver(&surface),
+                    };
                     self.bsdf_step(&bsdf, wo, pending, rng)
                 }
                 IntegratorKind::Mixture => self.mixture_step(&surface, &bsdf, wo, rng, count),
@@ -225,14 +239,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
             return Vec3::ZERO;
         }
-        self.scene.emitted(surface) * how.weight(|| self.lights.pdf_hit(hit.prim, dir, hit.t))
+        self.scene.emitted(surface)
+            * how.weight(|from| self.lights.pdf_hit(from, hit.prim, dir, hit.t))
     }
 
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
     fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
-        let weight = how.weight(|| self.lights.pdf_sky(dir));
+        let weight = how.weight(|_| self.lights.pdf_sky(dir));
         if weight == 0.0 {
             return Vec3::ZERO;
         }
@@ -253,8 +268,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let sample: BsdfSample = bsdf.sample(wo, Vec2::new(u1, u2))?;
         let emission = match emission {
             _ if sample.delta => EmissionWeight::Full,
-            EmissionWeight::Mis { .. } => EmissionWeight::Mis {
+            EmissionWeight::Mis { from, .. } => EmissionWeight::Mis {
                 bsdf_pdf: sample.pdf,
+                from,
             },
             other => other,
         };
@@ -282,7 +298,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !self.lights.may_light(surface.p) {
             return Vec3::ZERO;
         }
-        let Some(light) = self.lights.sample(surface.p, rng) else {
+        let Some(light) = self.lights.sample(receiver(surface), rng) else {
             return Vec3::ZERO;
         };
         let (f, bsdf_pdf) = bsdf.eval_pdf(wo, light.dir);
@@ -324,7 +340,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng);
         }
         let light_pdf = LightPdf {
-            origin: surface.p,
+            at: receiver(surface),
             lights: &self.lights,
         };
         let mixture = MixturePdf::even(bsdf_pdf, light_pdf);

@@ -13,9 +13,8 @@ use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels}
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-/// (10: the native BVH's 8-wide nodes, whose traversal order may settle a tie between
-/// equally near triangles differently.)
-pub const ALGORITHM_VERSION: u32 = 10;
+/// (11: emitters chosen by a light BVH and sampled by solid angle.)
+pub const ALGORITHM_VERSION: u32 = 11;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
