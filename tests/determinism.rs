@@ -79,6 +79,7 @@ fn image<A: Accel>(
         max_depth: 5,
         seed: 11,
         integrator: kind,
+        light_sampler: Default::default(),
     };
     let (film, _) = pool.install(|| render(scene, accel, &camera, &settings, &|_| {}));
     film.pixels

@@ -265,6 +265,7 @@ fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
         max_depth: 4,
         seed: 1,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
     };
     let (film, _) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(film.pixels.iter().all(|p| p.is_finite()));

@@ -43,6 +43,7 @@ fn fixture() -> Fixture {
         max_depth: 5,
         seed: 11,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
     };
     Fixture {
         camera: camera_settings.camera(settings.width, settings.height),

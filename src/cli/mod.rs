@@ -12,6 +12,7 @@ use glam::Vec3;
 
 use ember::accel::AccelKind;
 use ember::integrator::IntegratorKind;
+use ember::light::LightSamplerKind;
 
 /// `--accel`: which structure answers the ray queries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -43,6 +44,24 @@ pub enum IntegratorArg {
     /// Next-event estimation and material sampling combined by multiple importance
     /// sampling (power heuristic), with Russian roulette.
     Mis,
+}
+
+/// `--light-sampler`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LightSamplerArg {
+    /// A light BVH: emitters weighed by power, distance and orientation at the point.
+    Bvh,
+    /// An alias table: emitters in proportion to power, wherever the point is.
+    Alias,
+}
+
+impl From<LightSamplerArg> for LightSamplerKind {
+    fn from(arg: LightSamplerArg) -> Self {
+        match arg {
+            LightSamplerArg::Bvh => LightSamplerKind::Bvh,
+            LightSamplerArg::Alias => LightSamplerKind::Alias,
+        }
+    }
 }
 
 impl From<IntegratorArg> for IntegratorKind {

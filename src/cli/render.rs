@@ -15,7 +15,10 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 use signal_hook::consts::{SIGINT, SIGTERM};
 
-use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
+use super::{
+    parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
+    ToneArgs,
+};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
 use ember::film::checkpoint::{self, Header, Identity};
@@ -86,6 +89,10 @@ pub struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     integrator: IntegratorArg,
+    /// How light samples choose an emitter: a light BVH weighing power, distance and
+    /// orientation at the shading point, or an alias table by power alone.
+    #[arg(long, value_enum, default_value_t = LightSamplerArg::Bvh)]
+    light_sampler: LightSamplerArg,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
@@ -204,6 +211,7 @@ impl RenderPlan {
                 max_depth: args.max_depth,
                 seed: args.seed,
                 integrator: args.integrator.into(),
+                light_sampler: args.light_sampler.into(),
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -578,8 +586,15 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
         Some(bytes) => format!(", peak memory {}", ember::limits::human_bytes(bytes)),
         None => String::new(),
     };
+    let lights = match stats.light_nodes {
+        0 => String::new(),
+        n => format!(
+            ", light BVH of {n} nodes built in {:.1} ms",
+            stats.light_build_seconds * 1e3
+        ),
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{peak}",
+        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{lights}{peak}",
         plan.output.display(),
         s.width,
         s.height,

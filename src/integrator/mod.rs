@@ -31,7 +31,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
-use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf, Receiver};
+use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
 
@@ -139,12 +139,23 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 impl<'a, A: Accel> PathTracer<'a, A> {
     /// A tracer for `scene`, with its light distribution built once here.
     pub fn new(scene: &'a Scene, accel: &'a A, max_depth: u32, kind: IntegratorKind) -> Self {
+        Self::with_light_sampler(scene, accel, max_depth, kind, LightSamplerKind::default())
+    }
+
+    /// A tracer whose light samples choose emitters as `lights` says.
+    pub fn with_light_sampler(
+        scene: &'a Scene,
+        accel: &'a A,
+        max_depth: u32,
+        kind: IntegratorKind,
+        lights: LightSamplerKind,
+    ) -> Self {
         PathTracer {
             scene,
             accel,
             max_depth,
             kind,
-            lights: LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
+            lights: LightSampler::with_kind(&scene.mesh, &scene.materials, &scene.textures, lights)
                 .with_sky(scene.sky.clone(), scene.bounding_radius()),
         }
     }

@@ -72,43 +72,7 @@ impl LightBounds {
     /// beyond 90°.
     #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let center = self.centroid();
-        let radius_squared = 0.25 * (self.hi - self.lo).length_squared();
-        let to_p = p - center;
-        let d2 = to_p.length_squared();
-        // Inside the bounding sphere every direction is possible: no bound applies.
-        if d2 <= radius_squared {
-            let importance = self.power / radius_squared;
-            return if importance.is_finite() {
-                importance
-            } else {
-                0.0
-            };
-        }
-        // θ_b, the angular radius of the bounding sphere seen from p.
-        let s2 = radius_squared / d2;
-        let (sin_b, cos_b) = (s2.sqrt(), (1.0 - s2).sqrt());
-        let wi = to_p * d2.sqrt().recip();
-        let cos_w = self.axis.dot(wi).clamp(-1.0, 1.0);
-        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
-        let sin_o = (1.0 - self.cos_theta * self.cos_theta).max(0.0).sqrt();
-        let (cos_x, sin_x) = cos_sin_clamped_difference((cos_w, sin_w), (self.cos_theta, sin_o));
-        let (cos_emit, _) = cos_sin_clamped_difference((cos_x, sin_x), (cos_b, sin_b));
-        if cos_emit.is_nan() || cos_emit <= 0.0 {
-            return 0.0;
-        }
-        let mut importance = self.power * cos_emit / d2;
-        if n != Vec3::ZERO {
-            let cos_i = n.dot(wi).abs().min(1.0);
-            let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
-            let (cos_receive, _) = cos_sin_clamped_difference((cos_i, sin_i), (cos_b, sin_b));
-            importance *= cos_receive.max(0.0);
-        }
-        if importance.is_finite() {
-            importance.max(0.0)
-        } else {
-            0.0
-        }
+        NodeBounds::from(self).importance(p, n)
     }
 
     /// The surface area orientation heuristic's cost of these bounds: power, times the
@@ -163,9 +127,76 @@ fn cone_union((a, cos_a): (Vec3, f32), (b, cos_b): (Vec3, f32)) -> (Vec3, f32) {
     ((a * cos_r + toward_b * sin_r).normalize(), theta_o.cos())
 }
 
+/// [`LightBounds`] as the importance reads them, derived once at build time: the
+/// bounding sphere of the box, and the cone's sine beside its cosine.
+#[derive(Clone, Copy, Debug)]
+struct NodeBounds {
+    center: Vec3,
+    radius_squared: f32,
+    axis: Vec3,
+    cos_o: f32,
+    sin_o: f32,
+    power: f32,
+}
+
+impl From<&LightBounds> for NodeBounds {
+    fn from(b: &LightBounds) -> Self {
+        NodeBounds {
+            center: b.centroid(),
+            radius_squared: 0.25 * (b.hi - b.lo).length_squared(),
+            axis: b.axis,
+            cos_o: b.cos_theta,
+            sin_o: (1.0 - b.cos_theta * b.cos_theta).max(0.0).sqrt(),
+            power: b.power,
+        }
+    }
+}
+
+impl NodeBounds {
+    /// See [`LightBounds::importance`].
+    #[inline]
+    fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let to_p = p - self.center;
+        let d2 = to_p.length_squared();
+        // Inside the bounding sphere every direction is possible: no bound applies.
+        if d2 <= self.radius_squared {
+            let importance = self.power / self.radius_squared;
+            return if importance.is_finite() {
+                importance
+            } else {
+                0.0
+            };
+        }
+        // θ_b, the angular radius of the bounding sphere seen from p.
+        let inverse_d2 = d2.recip();
+        let s2 = self.radius_squared * inverse_d2;
+        let (sin_b, cos_b) = (s2.sqrt(), (1.0 - s2).sqrt());
+        let wi = to_p * inverse_d2.sqrt();
+        let cos_w = self.axis.dot(wi).clamp(-1.0, 1.0);
+        let sin_w = (1.0 - cos_w * cos_w).max(0.0).sqrt();
+        let (cos_x, sin_x) = cos_sin_clamped_difference((cos_w, sin_w), (self.cos_o, self.sin_o));
+        let (cos_emit, _) = cos_sin_clamped_difference((cos_x, sin_x), (cos_b, sin_b));
+        if cos_emit.is_nan() || cos_emit <= 0.0 {
+            return 0.0;
+        }
+        let mut importance = self.power * cos_emit * inverse_d2;
+        if n != Vec3::ZERO {
+            let cos_i = n.dot(wi).abs().min(1.0);
+            let sin_i = (1.0 - cos_i * cos_i).max(0.0).sqrt();
+            let (cos_receive, _) = cos_sin_clamped_difference((cos_i, sin_i), (cos_b, sin_b));
+            importance *= cos_receive.max(0.0);
+        }
+        if importance.is_finite() {
+            importance.max(0.0)
+        } else {
+            0.0
+        }
+    }
+}
+
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    bounds: LightBounds,
+    bounds: NodeBounds,
     /// A leaf's emitter, or an interior node's second child (the first follows it).
     index: u32,
     leaf: bool,
@@ -226,7 +257,7 @@ impl LightBvh {
         if let [single] = items {
             let bounds = lights[*single as usize];
             self.nodes.push(Node {
-                bounds,
+                bounds: NodeBounds::from(&bounds),
                 index: *single,
                 leaf: true,
             });
@@ -236,7 +267,7 @@ impl LightBvh {
         let split = split(lights, items, depth);
         let (first, second) = items.split_at_mut(split);
         self.nodes.push(Node {
-            bounds: lights[first[0] as usize],
+            bounds: NodeBounds::from(&lights[first[0] as usize]),
             index: 0,
             leaf: false,
         });
@@ -245,7 +276,7 @@ impl LightBvh {
         let b = self.build(lights, second, depth + 1, trail | (1 << depth));
         let bounds = a.union(&b);
         self.nodes[here] = Node {
-            bounds,
+            bounds: NodeBounds::from(&bounds),
             index: second_index,
             leaf: false,
         };

@@ -34,6 +34,10 @@ pub fn identity(
             "integrator",
             format!("{:?}", settings.integrator).to_lowercase(),
         ),
+        (
+            "light-sampler",
+            format!("{:?}", settings.light_sampler).to_lowercase(),
+        ),
         // The field of view before the eye: the default eye is derived from it.
         ("fov", format!("{:?}", camera.vfov_degrees)),
         ("eye", v(camera.eye)),

@@ -20,6 +20,7 @@ use crate::accel::Accel;
 use crate::film::{Film, FilmTile};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
+use crate::light::LightSamplerKind;
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 
@@ -34,6 +35,8 @@ pub struct RenderSettings {
     pub max_depth: u32,
     pub seed: u64,
     pub integrator: IntegratorKind,
+    /// How light samples choose an emitter.
+    pub light_sampler: LightSamplerKind,
 }
 
 /// What a render cost.
@@ -44,6 +47,10 @@ pub struct RenderStats {
     pub rays: u64,
     /// Samples whose estimate was NaN or infinite, left out of their pixel's mean.
     pub dropped_samples: u64,
+    /// Wall time of building the distribution over emitters, and its BVH nodes (0 for
+    /// the alias table).
+    pub light_build_seconds: f64,
+    pub light_nodes: usize,
 }
 
 impl RenderStats {
@@ -127,7 +134,14 @@ pub fn render_progressive<A: Accel>(
         "the film's samples are the render's"
     );
     let start = Instant::now();
-    let tracer = PathTracer::new(scene, accel, settings.max_depth, settings.integrator);
+    let tracer = PathTracer::with_light_sampler(
+        scene,
+        accel,
+        settings.max_depth,
+        settings.integrator,
+        settings.light_sampler,
+    );
+    let (light_build, light_nodes) = tracer.lights.build_cost();
     let before = film.total_done();
     let tiles: Vec<Mutex<FilmTile>> = film.tiles(TILE_SIZE).into_iter().map(Mutex::new).collect();
     let passes = Passes {
@@ -165,6 +179,8 @@ pub fn render_progressive<A: Accel>(
         samples: film.total_done() - before,
         rays,
         dropped_samples: dropped,
+        light_build_seconds: light_build.as_secs_f64(),
+        light_nodes,
     };
     (film, stats)
 }
