@@ -196,6 +196,22 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
         err.to_string().contains("accel embree") && err.to_string().contains("accel bvh"),
         "{err}"
     );
+    // So is the other light sampler: its samples differ.
+    let alias = RenderSettings {
+        light_sampler: ember::light::LightSamplerKind::Alias,
+        ..f.settings
+    };
+    let err = checkpoint::load(
+        &path,
+        &identity_of(&f.scene, &f.camera_settings, &alias),
+        0..6,
+    )
+    .unwrap_err();
+    assert!(
+        err.to_string().contains("light-sampler bvh")
+            && err.to_string().contains("light-sampler alias"),
+        "{err}"
+    );
     // A checkpoint continues the same sample range only.
     let err = checkpoint::load(&path, &identity, 2..6).unwrap_err();
     assert!(err.to_string().contains("needs 2..6"), "{err}");
