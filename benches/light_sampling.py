@@ -5,7 +5,8 @@ alternately round by round so that drift in the machine's load hits all alike.
 
 A variant is NAME=BINARY[:EXTRA ARGS], e.g. `alias=target/release/ember:--light-sampler alias`
 or `main=/tmp/main/ember`. Seconds are the render's own (ember's summary line); relMSE is
-`ember compare IMAGE REFERENCE`. Every round uses another seed. Prints one line per run,
+`ember compare IMAGE REFERENCE`; with --cpu, seconds are the process's CPU time instead
+(steadier on a busy machine; use it with --threads 1). Every round uses another seed. Prints one line per run,
 then the means and the ratios against the first variant.
 
 Usage:
@@ -21,18 +22,25 @@ Example (the many-light room; the reference is ember's own at 4096 spp):
 import argparse
 import os
 import re
+import resource
 import shlex
 import subprocess
 import sys
 import tempfile
 
 
-def render(binary, args, out, seed):
+def render(binary, args, out, seed, cpu):
     cmd = [binary, "render", *args, "--seed", str(seed), "-o", out]
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     done = subprocess.run(cmd, capture_output=True, text=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     found = re.search(r" in ([0-9.]+) s:", done.stderr)
     if done.returncode != 0 or not found:
         sys.exit(f"error: {shlex.join(cmd)}: {done.stderr.strip()}")
+    if cpu:
+        # The process's CPU time (loading included), less sensitive than wall time to
+        # other work on a shared machine.
+        return (after.ru_utime + after.ru_stime) - (before.ru_utime + before.ru_stime)
     return float(found.group(1))
 
 
@@ -49,6 +57,9 @@ def main():
     parser.add_argument("--reference", required=True)
     parser.add_argument("--variant", action="append", required=True)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--cpu", action="store_true", help="seconds of CPU time of the whole process, not the render's wall time"
+    )
     parser.add_argument("render", nargs=argparse.REMAINDER)
     opts = parser.parse_args()
     render_args = [a for a in opts.render if a != "--"]
@@ -63,7 +74,7 @@ def main():
         for r in range(opts.rounds):
             for name, binary, extra in variants:
                 out = os.path.join(tmp, f"{name}-{r}.exr")
-                seconds = render(binary, render_args + extra, out, 1000 + r)
+                seconds = render(binary, render_args + extra, out, 1000 + r, opts.cpu)
                 error = relmse(variants[0][1], out, opts.reference)
                 results[name].append((seconds, error))
                 print(f"round {r} {name}: {seconds:.2f} s, relMSE {error:.4e}", flush=True)

@@ -8,7 +8,7 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::stats::{chi_square, monte_carlo};
+use common::stats::{assert_chi_square, monte_carlo};
 use common::{build, diffuse, Built};
 use ember::light::bvh::{LightBounds, LightBvh};
 use ember::light::spherical_triangle::{
@@ -131,13 +131,8 @@ fn check_on_triangle(
         observed[sub_triangle(s, t, CELLS)] += 1.0;
     }
     let expected: Vec<f64> = expected.iter().map(|e| e * DRAWS as f64).collect();
-    let (chi2, dof) = chi_square(&observed, &expected);
-    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-    eprintln!("{name}: chi2 {chi2:.1} dof {dof} total {total:.5} void {void}");
-    assert!(
-        chi2 < limit,
-        "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})"
-    );
+    eprintln!("{name}: total {total:.5} void {void}");
+    assert_chi_square(name, &observed, &expected);
     assert!(void < DRAWS / 1000, "{name}: {void} void draws");
 }
 
@@ -208,7 +203,8 @@ fn sampler(built: &Built, kind: LightSamplerKind) -> LightSampler {
 }
 
 /// The emitter's draws follow the density `pdf_hit` reports for them, whichever
-/// strategy the rule picks; and the receivers cover all three cases of the rule.
+/// strategy the rule picks; and the receivers cover solid-angle sampling, area sampling
+/// of a huge triangle and area sampling of small or far ones.
 #[test]
 fn emitter_draws_follow_the_density_of_their_strategy() {
     let built = one_emitter();
@@ -219,8 +215,16 @@ fn emitter_draws_follow_the_density_of_their_strategy() {
             let omega = SphericalTriangle::new(at.p, TRIANGLE)
                 .unwrap()
                 .solid_angle();
-            cases[usize::from(omega >= MIN_SOLID_ANGLE) + usize::from(omega > MAX_SOLID_ANGLE)] +=
-                1;
+            let by_solid_angle = lights.samples_by_solid_angle(at, 0);
+            if by_solid_angle {
+                assert!((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega));
+            }
+            let case = match () {
+                _ if by_solid_angle => 0,
+                _ if omega > MAX_SOLID_ANGLE => 1,
+                _ => 2,
+            };
+            cases[case] += 1;
             let density =
                 |dir: Vec3, distance: f32| f64::from(lights.pdf_hit(at, 0, dir, distance));
             let draw = |rng: &mut Rng| {
@@ -347,10 +351,7 @@ fn bvh_choices_follow_its_probabilities() {
         let expected: Vec<f64> = (0..n)
             .map(|i| f64::from(bvh.probability(p, normal, i)) * draws as f64)
             .collect();
-        let (chi2, dof) = chi_square(&counts, &expected);
-        let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-        eprintln!("bvh choices at {p}: chi2 {chi2:.1} dof {dof}");
-        assert!(chi2 < limit, "chi-square {chi2:.1} over {dof} dof");
+        assert_chi_square(&format!("bvh choices at {p}"), &counts, &expected);
     }
 }
 

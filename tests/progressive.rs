@@ -197,13 +197,13 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
         "{err}"
     );
     // So is the other light sampler: its samples differ.
-    let alias = RenderSettings {
-        light_sampler: ember::light::LightSamplerKind::Alias,
+    let bvh_lights = RenderSettings {
+        light_sampler: ember::light::LightSamplerKind::Bvh,
         ..f.settings
     };
     let err = checkpoint::load(
         &path,
-        &identity_of(&f.scene, &f.camera_settings, &alias),
+        &identity_of(&f.scene, &f.camera_settings, &bvh_lights),
         0..6,
     )
     .unwrap_err();

@@ -62,7 +62,8 @@ impl LightBounds {
     }
 
     /// An estimate of the light these emitters send to a receiver at `p` with unit
-    /// normal `n` (zero: no normal term): power over squared distance, times a bound on
+    /// normal `n` (zero: no normal term): power over squared distance to the centre
+    /// (at least a quarter of the bounding sphere's radius, squared), times a bound on
     /// the emitters' cosine towards `p` and on the receiver's |cosine| towards them.
     /// 0 only when no emitter inside can shine on `p`: every emitter point lies in
     /// the box's bounding sphere, which `p` sees within the angle θ_b of its centre,
@@ -158,9 +159,13 @@ impl NodeBounds {
     fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         let to_p = p - self.center;
         let d2 = to_p.length_squared();
-        // Inside the bounding sphere every direction is possible: no bound applies.
+        // Inside the bounding sphere every direction is possible: no angle bound
+        // applies, but the distance to the centre still tells a node around `p` from
+        // one it is only inside of. (Clamped, so that the nearest nodes do not take all
+        // the choices: a quarter of the radius is as near as the emitters are taken to
+        // be.)
         if d2 <= self.radius_squared {
-            let importance = self.power / self.radius_squared;
+            let importance = self.power / d2.max(0.25 * self.radius_squared);
             return if importance.is_finite() {
                 importance
             } else {

@@ -5,7 +5,15 @@
 //! The rule, a pure function of the receiver and the triangle so that the density of
 //! any direction is that of the strategy that would have drawn it:
 //! - the receiver is behind the emitting side: nothing (density 0);
-//! - solid angle below [`MIN_SOLID_ANGLE`]: area sampling, density `d² / (cos α · A)`.
+//! - area sampling's density, `d² / (cos α · A) = d³ / (h · A)` at distance `d` from a
+//!   receiver at height `h` over the plane, varies over the triangle by less than a
+//!   factor 64, by the bound `(d_max / h)³`: area sampling. It costs a fraction of
+//!   Arvo's map, which pays only where the triangle spans a wide angle. Measured on
+//!   the Cornell box (512², 32 spp, one thread, CPU time against the alias table and
+//!   area sampling alone): solid angle wherever the bounds below allow, +44% time for
+//!   −3% error; with a factor 2 here, about the same; 8, +17% for −1%; 64, +7% for
+//!   −0.3%;
+//! - solid angle below [`MIN_SOLID_ANGLE`]: area sampling.
 //!   The triangle is small and far, so that density is nearly constant over it and
 //!   Arvo's map (trigonometry, and an inversion for every density) would buy nothing.
 //!   A bounding sphere settles most of these without computing the solid angle;
@@ -23,6 +31,9 @@ use crate::sampling::uniform_triangle;
 
 /// Below this solid angle (steradians) a triangle is sampled by area (pbrt-v4's bound).
 pub const MIN_SOLID_ANGLE: f64 = 3e-4;
+/// `64^(2/3)`: a triangle is sampled by area where area sampling's density varies
+/// over it by less than a factor 64, i.e. where `d_max² ≤ 64^(2/3) h² = 16 h²`.
+const AREA_RATIO_SQUARED_CUBE_ROOT: f32 = 16.0;
 /// Above this solid angle (steradians) a triangle is sampled by area (pbrt-v4's bound).
 pub const MAX_SOLID_ANGLE: f64 = 6.22;
 
@@ -102,6 +113,12 @@ impl Emitter {
         }
     }
 
+    /// Whether [`sample`](Self::sample) draws directions from `at` by solid angle
+    /// (rather than by area).
+    pub fn samples_by_solid_angle(&self, at: Receiver) -> bool {
+        self.faces(at.p) && matches!(self.strategy(at), Strategy::SolidAngle(..))
+    }
+
     /// Whether `p` is on the emitting side of the triangle's plane.
     #[inline]
     fn faces(&self, p: Vec3) -> bool {
@@ -110,6 +127,19 @@ impl Emitter {
 
     #[inline]
     fn strategy(&self, at: Receiver) -> Strategy {
+        // Area sampling's density in solid angle, d²/(A cos α) = d³/(A h) at distance d
+        // from a receiver at height h over the plane, varies over the triangle by at
+        // most (d_max / h)³: where that stays under 64, Arvo's map costs more than it
+        // saves.
+        let h = (at.p - self.vertices[0]).dot(self.normal);
+        let d_max2 = self
+            .vertices
+            .iter()
+            .map(|v| v.distance_squared(at.p))
+            .fold(0.0, f32::max);
+        if d_max2 <= AREA_RATIO_SQUARED_CUBE_ROOT * h * h {
+            return Strategy::Area;
+        }
         // The solid angle of the bounding sphere's cap bounds the triangle's:
         // 2π(1 − cos θ) with sin²θ = r²/d², written without cancellation.
         let d2 = at.p.distance_squared(self.center);
