@@ -49,10 +49,15 @@ pub enum IntegratorArg {
 /// `--light-sampler`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum LightSamplerArg {
-    /// A light BVH: emitters weighed by power, distance and orientation at the point.
-    Bvh,
-    /// An alias table: emitters in proportion to power, wherever the point is.
+    /// An alias table: emitters in proportion to power, wherever the point is; a
+    /// uniform point on the chosen triangle's area.
     Alias,
+    /// The alias table, then a direction by solid angle where the triangle spans a
+    /// wide angle.
+    SolidAngle,
+    /// A light BVH (emitters weighed by power, distance and orientation at the point),
+    /// then solid-angle sampling as for `solid-angle`.
+    Bvh,
 }
 
 impl From<LightSamplerArg> for LightSamplerKind {
@@ -60,6 +65,7 @@ impl From<LightSamplerArg> for LightSamplerKind {
         match arg {
             LightSamplerArg::Bvh => LightSamplerKind::Bvh,
             LightSamplerArg::Alias => LightSamplerKind::Alias,
+            LightSamplerArg::SolidAngle => LightSamplerKind::SolidAngle,
         }
     }
 }

@@ -60,6 +60,9 @@ pub struct Emitter {
     pub normal: Vec3,
     pub emission: Vec3,
     pub area: f32,
+    /// Density per unit area of the whole light sampler's area sampling on this
+    /// triangle: `(1 − P_sky) · P_i / A_i` (set by the sampler; 0 until then).
+    pub area_density: f32,
     /// Centre and squared radius of a sphere around the triangle (its centroid and
     /// farthest corner), to settle the small-solid-angle case cheaply.
     center: Vec3,
@@ -106,6 +109,7 @@ impl Emitter {
             normal: cross.normalize_or_zero(),
             emission,
             area: 0.5 * cross.length(),
+            area_density: 0.0,
             center,
             radius_squared,
             map,
@@ -213,6 +217,47 @@ impl Emitter {
             distance,
             density,
         })
+    }
+
+    /// A uniform point on the triangle's area from `u`, seen from `origin`, with
+    /// `area_density` turned into the whole sampler's solid-angle density: the
+    /// default strategy, with no solid-angle test on its path.
+    #[inline]
+    pub fn sample_area(&self, origin: Vec3, u: [f32; 2]) -> Option<EmitterSample> {
+        let (b1, b2) = uniform_triangle(u[0], u[1]);
+        let b = [1.0 - b1 - b2, b1, b2];
+        let [v0, v1, v2] = self.vertices;
+        let point = b[0] * v0 + b[1] * v1 + b[2] * v2;
+        let to_light = point - origin;
+        let distance_squared = to_light.length_squared();
+        let distance = distance_squared.sqrt();
+        if distance.is_nan() || distance <= 0.0 {
+            return None;
+        }
+        let dir = to_light / distance;
+        let cos_light = -dir.dot(self.normal);
+        if cos_light.is_nan() || cos_light <= 0.0 {
+            return None;
+        }
+        Some(EmitterSample {
+            b,
+            point,
+            dir,
+            distance,
+            density: self.area_density * distance_squared / cos_light,
+        })
+    }
+
+    /// The whole sampler's solid-angle density of area sampling along unit `dir`,
+    /// whose ray meets the triangle at `distance` (0 from behind).
+    #[inline]
+    pub fn area_pdf(&self, dir: Vec3, distance: f32) -> f32 {
+        let cos_light = -dir.dot(self.normal);
+        if cos_light > 0.0 {
+            self.area_density * distance * distance / cos_light
+        } else {
+            0.0
+        }
     }
 
     /// The solid-angle density with which [`sample`](Self::sample) draws unit `dir`

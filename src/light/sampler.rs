@@ -42,10 +42,15 @@ use crate::scene::{Environment, Material, Texture, TriangleMesh};
 /// costs about twice the time per sample there, and its choice between a handful of
 /// lights buys nothing (on the Cornell box it gives the alias table's probabilities).
 pub enum LightSamplerKind {
-    /// In proportion to power, wherever the receiver is (one alias table).
+    /// In proportion to power, wherever the receiver is (one alias table), then a
+    /// uniform point on the triangle's area: the sampler of ALGORITHM_VERSION 10.
     #[default]
     Alias,
-    /// By a light BVH's importance at the receiver: power, distance, orientation.
+    /// The same alias table, then a direction by solid angle where [`Emitter`]'s rule
+    /// says it pays.
+    SolidAngle,
+    /// By a light BVH's importance at the receiver (power, distance, orientation),
+    /// then [`Emitter`]'s solid-angle rule.
     Bvh,
 }
 
@@ -74,10 +79,15 @@ pub struct LightSampler {
     build_time: Duration,
 }
 
-/// The distribution over emitters.
+/// The distribution over emitters and the way a point is drawn on the chosen one,
+/// matched once per light sample.
 #[derive(Clone, Debug)]
 enum Choice {
-    Alias(AliasTable),
+    /// Alias table, uniform point on the area ([`LightSamplerKind::Alias`]).
+    Area(AliasTable),
+    /// Alias table, solid-angle rule ([`LightSamplerKind::SolidAngle`]).
+    SolidAngle(AliasTable),
+    /// Light BVH, solid-angle rule ([`LightSamplerKind::Bvh`]).
     Bvh(LightBvh),
 }
 
@@ -211,7 +221,8 @@ impl LightSampler {
             .collect();
         let start = Instant::now();
         let choice = match kind {
-            LightSamplerKind::Alias => AliasTable::new(&weights).map(Choice::Alias),
+            LightSamplerKind::Alias => AliasTable::new(&weights).map(Choice::Area),
+            LightSamplerKind::SolidAngle => AliasTable::new(&weights).map(Choice::SolidAngle),
             LightSamplerKind::Bvh => {
                 let bounds: Vec<LightBounds> = emitters
                     .iter()
@@ -221,6 +232,16 @@ impl LightSampler {
                 LightBvh::new(&bounds).map(Choice::Bvh)
             }
         };
+        let mut emitters = emitters;
+        if let Some(Choice::Area(table)) = &choice {
+            for (i, e) in emitters.iter_mut().enumerate() {
+                e.area_density = if e.area > 0.0 {
+                    table.pmf(i) / e.area
+                } else {
+                    0.0
+                };
+            }
+        }
         LightSampler {
             prims,
             bounds: EmitterBounds::new(&emitters),
@@ -247,6 +268,9 @@ impl LightSampler {
         } else {
             (sky_power / (sky_power + self.power)).clamp(0.05, 0.95)
         };
+        for e in &mut self.emitters {
+            e.area_density *= 1.0 - p;
+        }
         self.sky = Some(sky);
         self.sky_probability = p;
         self
@@ -255,7 +279,8 @@ impl LightSampler {
     /// How emitters are chosen (`None` without emitters of positive power).
     pub fn kind(&self) -> Option<LightSamplerKind> {
         self.choice.as_ref().map(|c| match c {
-            Choice::Alias(_) => LightSamplerKind::Alias,
+            Choice::Area(_) => LightSamplerKind::Alias,
+            Choice::SolidAngle(_) => LightSamplerKind::SolidAngle,
             Choice::Bvh(_) => LightSamplerKind::Bvh,
         })
     }
@@ -324,8 +349,10 @@ impl LightSampler {
     /// Whether light samples from `at` towards emissive triangle `prim` are drawn by
     /// solid angle (`false`: by area, or not at all).
     pub fn samples_by_solid_angle(&self, at: Receiver, prim: u32) -> bool {
-        self.emitter_index(prim)
-            .is_some_and(|i| self.emitters[i].samples_by_solid_angle(at))
+        !matches!(self.choice, None | Some(Choice::Area(_)))
+            && self
+                .emitter_index(prim)
+                .is_some_and(|i| self.emitters[i].samples_by_solid_angle(at))
     }
 
     /// Probability that [`sample`](Self::sample) at `at` aims at emissive triangle
@@ -342,7 +369,7 @@ impl LightSampler {
     fn chosen(&self, at: Receiver, i: usize) -> f32 {
         match &self.choice {
             None => 0.0,
-            Some(Choice::Alias(table)) => table.pmf(i),
+            Some(Choice::Area(table) | Choice::SolidAngle(table)) => table.pmf(i),
             Some(Choice::Bvh(bvh)) => bvh.probability(at.p, at.n, i),
         }
     }
@@ -352,7 +379,7 @@ impl LightSampler {
     #[inline]
     fn choose(&self, at: Receiver, u: f64) -> Option<(usize, f32, f32)> {
         match self.choice.as_ref()? {
-            Choice::Alias(table) => {
+            Choice::Area(table) | Choice::SolidAngle(table) => {
                 let (i, rest) = table.sample(u);
                 Some((i, table.pmf(i), rest))
             }
@@ -375,10 +402,23 @@ impl LightSampler {
             return self.sample_sky(rng.refine(u1), rng.refine(u2));
         }
         let u1 = (u1 - self.sky_probability) / (1.0 - self.sky_probability);
-        let (i, probability, u1) = self.choose(at, rng.refine(u1.min(ONE_BELOW)))?;
+        let u1 = rng.refine(u1.min(ONE_BELOW));
+        let (i, pdf, drawn) = match self.choice.as_ref()? {
+            // The default: no receiver-dependent choice, no solid-angle rule on its path
+            // (`area_density` already holds the sky's share and the table's pmf).
+            Choice::Area(table) => {
+                let (i, u1) = table.sample(u1);
+                let drawn = self.emitters[i].sample_area(at.p, [u1, u2])?;
+                (i, drawn.density, drawn)
+            }
+            Choice::SolidAngle(_) | Choice::Bvh(_) => {
+                let (i, probability, u1) = self.choose(at, u1)?;
+                let drawn = self.emitters[i].sample(at, [u1, u2])?;
+                let pdf = (1.0 - self.sky_probability) * probability * drawn.density;
+                (i, pdf, drawn)
+            }
+        };
         let emitter = &self.emitters[i];
-        let drawn = emitter.sample(at, [u1, u2])?;
-        let pdf = (1.0 - self.sky_probability) * probability * drawn.density;
         if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
@@ -436,6 +476,9 @@ impl LightSampler {
         let Some(i) = self.emitter_index(prim) else {
             return 0.0;
         };
+        if let Some(Choice::Area(_)) = self.choice {
+            return self.emitters[i].area_pdf(dir, distance);
+        }
         let density = self.emitters[i].density(at, dir, distance);
         if density == 0.0 {
             return 0.0;
