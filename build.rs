@@ -7,6 +7,12 @@
 //! 2. pkg-config `embree4`;
 //! 3. `/usr/include/embree4` (Debian 13+ `libembree-dev`);
 //! 4. `/usr/include/embree3` (Debian 12 `libembree-dev`).
+//!
+//! With the `denoise` feature it also finds Intel Open Image Denoise, which the `oidn`
+//! crate links, and records its folder as an rpath so that ember, its tests and benches
+//! run without LD_LIBRARY_PATH: `OIDN_DIR/lib` (the user's, or the repository's `.oidn`
+//! from `.cargo/config.toml`, filled by scripts/setup.sh), else pkg-config's
+//! `OpenImageDenoise`, else the system's library folders.
 
 use std::env;
 use std::path::{Path, PathBuf};
@@ -26,6 +32,10 @@ fn main() {
     println!("cargo:rerun-if-changed=build.rs");
     println!("cargo::rustc-check-cfg=cfg(embree3)");
     println!("cargo::rustc-check-cfg=cfg(embree4)");
+
+    if env::var_os("CARGO_FEATURE_DENOISE").is_some() {
+        link_oidn();
+    }
 
     let embree = find_embree().unwrap_or_else(|| {
         eprintln!(
@@ -125,4 +135,56 @@ fn major_in(include_dir: &Path) -> Option<u32> {
     [4, 3]
         .into_iter()
         .find(|m| include_dir.join(format!("embree{m}/rtcore.h")).is_file())
+}
+
+/// The folder holding `libOpenImageDenoise.so`, added to the link search and recorded as
+/// an rpath; stops the build with how to get the library when there is none.
+fn link_oidn() {
+    println!("cargo:rerun-if-env-changed=OIDN_DIR");
+    const LIB: &str = "libOpenImageDenoise.so";
+    let from_env = env::var_os("OIDN_DIR")
+        .filter(|d| !d.is_empty())
+        .map(|d| PathBuf::from(d).join("lib"));
+    if let Some(lib_dir) = &from_env {
+        // Rerun once scripts/setup.sh has filled the folder (or someone emptied it).
+        println!("cargo:rerun-if-changed={}", lib_dir.join(LIB).display());
+    }
+    let pkg_config = || {
+        pkg_config::Config::new()
+            .cargo_metadata(false)
+            .probe("OpenImageDenoise")
+            .ok()
+            .and_then(|lib| lib.link_paths.into_iter().find(|p| p.join(LIB).exists()))
+    };
+    let system = || {
+        [
+            "/usr/lib/x86_64-linux-gnu",
+            "/usr/lib64",
+            "/usr/lib",
+            "/usr/local/lib",
+        ]
+        .into_iter()
+        .map(PathBuf::from)
+        .find(|p| p.join(LIB).exists())
+    };
+    let Some(lib_dir) = from_env
+        .filter(|d| d.join(LIB).exists())
+        .or_else(pkg_config)
+        .or_else(system)
+    else {
+        eprintln!(
+            "error: Intel Open Image Denoise was not found (OIDN_DIR={}): run scripts/setup.sh, \
+             which fetches it into .oidn/, or point OIDN_DIR at a folder holding lib/{LIB}, \
+             or build without denoising: cargo build --no-default-features",
+            env::var("OIDN_DIR").unwrap_or_default()
+        );
+        exit(1);
+    };
+    println!("cargo:rustc-link-search=native={}", lib_dir.display());
+    println!("cargo:rustc-link-arg=-Wl,-rpath,{}", lib_dir.display());
+    // `ember info` names the library file linked (its name ends in the version: the
+    // symbolic links of an installation lead to libOpenImageDenoise.so.MAJOR.MINOR.PATCH).
+    let library = lib_dir.join(LIB);
+    let library = library.canonicalize().unwrap_or(library);
+    println!("cargo:rustc-env=EMBER_OIDN_LIBRARY={}", library.display());
 }

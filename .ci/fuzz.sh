@@ -1,14 +1,29 @@
 #!/usr/bin/env bash
-# Fuzzes OBJ + MTL text through ember's scene loading for SECONDS seconds (default 60)
-# on the stable toolchain: tests/fuzz_obj.rs (proptest, grammar-based and byte
-# mutations of the Cornell box). The address space is capped so that an input which
-# makes ember allocate without bound fails the run instead of swapping the machine.
+# Fuzzes what ember reads for SECONDS seconds in all (default 60), shared equally by
+# the fuzz targets tests/fuzz_*.rs, on the stable toolchain (proptest):
+#   fuzz_obj           OBJ + MTL text (grammar-based, and byte mutations of the Cornell box)
+#   fuzz_mtl_textures  MTL texture statements, their options and damaged image files
+#   fuzz_film_files    shard and checkpoint files (crafted headers, damaged pixels, valid checksums)
+# Each target's test is the function named like it with its fuzz_ prefix. The address
+# space is capped so that an input which makes ember allocate without bound fails the
+# run instead of swapping the machine.
 # Usage: .ci/fuzz.sh [SECONDS]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${1:-60}"
-cargo test --release --test fuzz_obj --no-run
+targets=()
+for file in tests/fuzz_*.rs; do
+  targets+=("$(basename "$file" .rs)")
+done
+share=$(( (seconds + ${#targets[@]} - 1) / ${#targets[@]} ))
+build=()
+for target in "${targets[@]}"; do build+=(--test "$target"); done
+cargo test --release "${build[@]}" --no-run
 # 8 GiB of address space: far more than any input here needs (they are a few KiB), far
 # less than "without bound".
 ulimit -v $((8 * 1024 * 1024))
-RUST_BACKTRACE=0 EMBER_FUZZ_SECONDS="$seconds" cargo test --release --test fuzz_obj -- --nocapture fuzz_obj_text
+for target in "${targets[@]}"; do
+  echo "== $target for $share s" >&2
+  # Only the fuzz_* function of each target (its regressions run with cargo test).
+  RUST_BACKTRACE=0 EMBER_FUZZ_SECONDS="$share" cargo test --release --test "$target" -- --nocapture fuzz_
+done

@@ -31,14 +31,25 @@ pub fn check_writable(path: &Path) -> Result<(), WriteError> {
         .prefix(".ember-check")
         .tempfile_in(parent_dir(path))
         .map(drop)
-        .map_err(|e| WriteError::new(path, io_reason(&e)))
+        .map_err(|e| WriteError::new(path, create_reason(path, &e)))
 }
 
-/// An I/O error's message without the temporary file's name that tempfile appends.
-fn io_reason(e: &std::io::Error) -> String {
+/// Why no file could be created beside `path`, in terms of the user's path: tempfile's
+/// own message names the random temporary file, which means nothing to the user.
+fn create_reason(path: &Path, e: &std::io::Error) -> String {
+    let dir = parent_dir(path);
+    match std::fs::metadata(dir) {
+        Err(_) => format!("its directory {} does not exist", dir.display()),
+        Ok(m) if !m.is_dir() => format!("{} is not a directory", dir.display()),
+        Ok(_) => plain_reason(e),
+    }
+}
+
+/// An I/O error's message without any path tempfile adds to it.
+fn plain_reason(e: &std::io::Error) -> String {
     match e.raw_os_error() {
         Some(code) => std::io::Error::from_raw_os_error(code).to_string(),
-        None => e.to_string(),
+        None => std::io::Error::from(e.kind()).to_string(),
     }
 }
 
@@ -57,8 +68,10 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
         .prefix(".ember-")
         .suffix(".tmp")
         .tempfile_in(parent_dir(path))
-        .map_err(|e| fail(io_reason(&e)))?;
-    file.write_all(bytes).map_err(|e| fail(e.to_string()))?;
+        .map_err(|e| fail(create_reason(path, &e)))?;
+    file.as_file_mut()
+        .write_all(bytes)
+        .map_err(|e| fail(plain_reason(&e)))?;
     // tempfile creates files readable by their owner only; an image or checkpoint is an
     // ordinary file, so keep the mode of the file being replaced, or rw-r--r--.
     #[cfg(unix)]
@@ -69,7 +82,11 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WriteError> {
             .set_permissions(std::fs::Permissions::from_mode(mode))
             .map_err(|e| fail(e.to_string()))?;
     }
-    file.as_file().sync_all().map_err(|e| fail(e.to_string()))?;
-    file.persist(path).map_err(|e| fail(e.error.to_string()))?;
+    file.as_file()
+        .sync_all()
+        .map_err(|e| fail(plain_reason(&e)))?;
+    // On an error `file` is dropped, which deletes the temporary file.
+    file.persist(path)
+        .map_err(|e| fail(plain_reason(&e.error)))?;
     Ok(())
 }

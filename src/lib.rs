@@ -13,6 +13,7 @@
 pub mod accel;
 pub mod bsdf;
 pub mod color;
+pub mod denoise;
 // The only unsafe code: the FFI to Embree, each block with its SAFETY line.
 #[allow(unsafe_code)]
 pub mod embree;

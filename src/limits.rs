@@ -1,6 +1,14 @@
 //! How much memory the machine can give ember, so that work which cannot fit is refused
 //! up front with a message naming the sizes, instead of dying half-way in the allocator.
 
+/// The largest image side `ember render` accepts (`--width`, `--height`), and so the
+/// largest a shard or checkpoint may claim.
+pub const MAX_IMAGE_SIDE: u32 = 16384;
+/// The most samples per pixel `ember render --spp` accepts.
+pub const MAX_SPP: u32 = 1_000_000;
+/// The most shards a render may be split into (`--shard I/N`).
+pub const MAX_SHARDS: u32 = 1_000_000;
+
 /// Environment variable that overrides the available memory, in bytes. For tests (and
 /// for users who want ember to stay under a budget smaller than the machine's).
 pub const MEMORY_LIMIT_ENV: &str = "EMBER_MEMORY_LIMIT";

@@ -1,5 +1,5 @@
-//! The `ember` command line: `ember render`, `ember merge`, `ember bench`, `ember compare`,
-//! `ember info`.
+//! The `ember` command line: `ember render`, `ember merge`, `ember denoise`, `ember bench`,
+//! `ember compare`, `ember info`.
 //!
 //! Environment variables (for tests and for running under a budget):
 //! - `EMBER_MEMORY_LIMIT=BYTES`: memory ember may assume is available (default:
@@ -13,7 +13,9 @@ mod cli;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use cli::{bench::BenchArgs, merge::MergeArgs, misc::CompareArgs, render::RenderArgs};
+use cli::{
+    bench::BenchArgs, denoise::DenoiseArgs, merge::MergeArgs, misc::CompareArgs, render::RenderArgs,
+};
 
 #[derive(Parser)]
 #[command(
@@ -32,12 +34,16 @@ enum Command {
     Render(RenderArgs),
     /// Merge the shard files of a split render (`render --shard I/N`) into one image.
     Merge(MergeArgs),
+    /// Denoise an EXR render with Intel Open Image Denoise, guided by its albedo and
+    /// normal layers (`ember render --aov albedo,normal`).
+    Denoise(DenoiseArgs),
     /// Time Embree against the native BVH: build time, memory, and rays per second for
     /// primary, diffuse and shadow rays, single-threaded and on several threads.
     Bench(BenchArgs),
     /// Print MSE, relative MSE and PSNR of an image against a reference (EXR, HDR or PNG).
     Compare(CompareArgs),
-    /// Show the Embree library in use, its ISA and threads, and how ember was built.
+    /// Show the Embree library in use, its ISA and threads, the Open Image Denoise
+    /// library and device, and how ember was built.
     Info,
 }
 
@@ -64,7 +70,8 @@ fn main() -> ExitCode {
     };
     let result = match cli.command {
         Command::Render(args) => cli::render::run(args),
-        Command::Merge(args) => cli::merge::run(args).map(|()| ExitCode::SUCCESS),
+        Command::Merge(args) => cli::merge::run(args),
+        Command::Denoise(args) => cli::denoise::run(args).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => cli::bench::run(args).map(|()| ExitCode::SUCCESS),
         Command::Compare(args) => cli::misc::compare(args).map(|()| ExitCode::SUCCESS),
         Command::Info => cli::misc::info().map(|()| ExitCode::SUCCESS),

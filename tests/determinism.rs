@@ -80,6 +80,7 @@ fn image<A: Accel>(
         seed: 11,
         integrator: kind,
         light_sampler: Default::default(),
+        adaptive: None,
     };
     let (film, _) = pool.install(|| render(scene, accel, &camera, &settings, &|_| {}));
     film.pixels

@@ -9,18 +9,13 @@
 //! inputs were tried (`.ci/fuzz.sh N` does this under a memory cap). Every failure
 //! found becomes a case in `regressions` below.
 
-use std::collections::HashMap;
-use std::sync::atomic::{AtomicU64, Ordering};
-use std::sync::OnceLock;
-use std::time::{Duration, Instant};
+mod common;
 
-use ember::accel::EmbreeAccel;
-use ember::embree::{BuildQuality, Device};
-use ember::integrator::IntegratorKind;
-use ember::render::{self, RenderSettings};
-use ember::scene::{check_against_tobj, load_obj_from_str, CameraSettings, Scene};
+use std::collections::HashMap;
+
+use common::fuzz::render_tiny;
+use ember::scene::{check_against_tobj, load_obj_from_str, Scene};
 use proptest::prelude::*;
-use proptest::test_runner::{Config, TestRunner};
 
 /// An input: OBJ text and its in-memory material libraries.
 #[derive(Clone, Debug)]
@@ -186,27 +181,19 @@ fn mutate(bytes: &[u8], edits: &[(prop::sample::Index, u8, u8, usize)]) -> Strin
     String::from_utf8_lossy(&b).into_owned()
 }
 
-fn device() -> &'static Device {
-    static DEVICE: OnceLock<Device> = OnceLock::new();
-    DEVICE.get_or_init(|| Device::new("threads=1").expect("Embree device"))
-}
-
 /// What every input must satisfy: no panic (proptest reports one as a failure), and a
 /// scene that loads is consistent, bounded by its text, and renders.
-/// Inputs that loaded into a scene (the rest were refused with an error).
-static LOADED: AtomicU64 = AtomicU64::new(0);
-
-fn check(input: &Input) -> Result<(), TestCaseError> {
+/// Whether the input loaded (true) or was refused with an error.
+fn check(input: &Input) -> Result<bool, TestCaseError> {
     // The parallel OBJ reader either leaves the input to tobj or reads it as tobj does.
     let oracle = check_against_tobj(&input.obj, &input.mtl);
     prop_assert!(oracle.is_ok(), "parallel reader against tobj: {:?}", oracle);
     let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl) else {
-        return Ok(());
+        return Ok(false);
     };
-    LOADED.fetch_add(1, Ordering::Relaxed);
     check_scene(&scene, input)?;
     prop_assert_eq!(report.triangles, scene.mesh.triangles.len());
-    render_tiny(&scene)
+    render_tiny(&scene).map(|_| true)
 }
 
 fn check_scene(scene: &Scene, input: &Input) -> Result<(), TestCaseError> {
@@ -240,79 +227,13 @@ fn check_scene(scene: &Scene, input: &Input) -> Result<(), TestCaseError> {
     Ok(())
 }
 
-/// Builds the Embree scene and renders 4x4 pixels at 1 sample: the loader must never
-/// hand the rest of ember something that makes it panic.
-fn render_tiny(scene: &Scene) -> Result<(), TestCaseError> {
-    let accel = EmbreeAccel::build(
-        device(),
-        &scene.mesh.positions,
-        &scene.mesh.triangles,
-        BuildQuality::Low,
-    );
-    let accel = match accel {
-        Ok(a) => a,
-        Err(e) => return Err(TestCaseError::fail(format!("Embree build failed: {e}"))),
-    };
-    let (lo, hi) = scene.bounds();
-    let camera = CameraSettings::framing(lo, hi, 40.0);
-    if camera.validate().is_err() {
-        return Ok(());
-    }
-    let settings = RenderSettings {
-        width: 4,
-        height: 4,
-        spp: 1,
-        max_depth: 4,
-        seed: 1,
-        integrator: IntegratorKind::Bsdf,
-        light_sampler: Default::default(),
-    };
-    let (film, _) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
-    prop_assert!(film.pixels.iter().all(|p| p.is_finite()));
-    Ok(())
-}
-
 fn input() -> impl Strategy<Value = Input> {
     prop_oneof![grammar_input(1), grammar_input(40), mutated_input()]
 }
 
 #[test]
 fn fuzz_obj_text() {
-    let seconds: Option<u64> = std::env::var("EMBER_FUZZ_SECONDS")
-        .ok()
-        .and_then(|s| s.parse().ok());
-    let batch = 256;
-    let start = Instant::now();
-    let mut executions = 0u64;
-    let slowest = std::cell::Cell::new(Duration::ZERO);
-    loop {
-        // A fresh runner per batch: each starts from a new random seed.
-        let mut runner = TestRunner::new(Config {
-            cases: batch,
-            failure_persistence: None,
-            ..Config::default()
-        });
-        let result = runner.run(&input(), |input| {
-            let t = Instant::now();
-            let r = check(&input);
-            slowest.set(slowest.get().max(t.elapsed()));
-            r
-        });
-        executions += u64::from(batch);
-        if let Err(e) = result {
-            panic!("fuzz failure after ~{executions} inputs: {e}");
-        }
-        match seconds {
-            Some(s) if start.elapsed() < Duration::from_secs(s) => {}
-            _ => break,
-        }
-    }
-    eprintln!(
-        "fuzz_obj_text: {executions} inputs ({} loaded, rendered) in {:.1} s, slowest {:.1} ms",
-        LOADED.load(Ordering::Relaxed),
-        start.elapsed().as_secs_f64(),
-        slowest.get().as_secs_f64() * 1e3
-    );
+    common::fuzz::run("fuzz_obj_text", "loaded and rendered", input(), check);
 }
 
 /// Inputs the fuzzer (or review) found problems with, kept so they never come back.

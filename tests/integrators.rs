@@ -188,7 +188,8 @@ fn render_pixels(
                 let mut count = RayCount::default();
                 let mut sum = DVec3::ZERO;
                 for s in 0..spp {
-                    let l = pixel_sample(tracer, camera, seed, (x, y), pixel, s, &mut count);
+                    let l =
+                        pixel_sample(tracer, camera, seed, (x, y), pixel, s, &mut count).radiance;
                     if l.is_finite() {
                         sum += l.as_dvec3();
                     }

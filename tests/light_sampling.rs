@@ -209,7 +209,7 @@ fn sampler(built: &Built, kind: LightSamplerKind) -> LightSampler {
 fn emitter_draws_follow_the_density_of_their_strategy() {
     let built = one_emitter();
     let mut cases = [0; 3];
-    for kind in [LightSamplerKind::Bvh, LightSamplerKind::Alias] {
+    for kind in LightSamplerKind::ALL {
         let lights = sampler(&built, kind);
         for (k, (name, at)) in receivers().into_iter().enumerate() {
             let omega = SphericalTriangle::new(at.p, TRIANGLE)
@@ -391,7 +391,7 @@ fn lambert_irradiance(p: Vec3, n: Vec3, v: [Vec3; 3], radiance: f64) -> f64 {
 #[test]
 fn irradiance_under_a_large_triangle_matches_lamberts_formula() {
     let built = one_emitter();
-    for kind in [LightSamplerKind::Bvh, LightSamplerKind::Alias] {
+    for kind in LightSamplerKind::ALL {
         let lights = sampler(&built, kind);
         // The receivers face the light: cos > 0 over all of it.
         for (seed, at) in [
@@ -496,7 +496,7 @@ fn a_sphere_of_emitters_gives_the_known_direct_light() {
             n: Vec3::X,
         },
     ];
-    for kind in [LightSamplerKind::Bvh, LightSamplerKind::Alias] {
+    for kind in LightSamplerKind::ALL {
         let lights = sampler(&built, kind);
         let uniform_lights = sampler(&uniform, kind);
         for (k, at) in receivers.into_iter().enumerate() {

@@ -106,21 +106,12 @@ fn lights_of(built: &Built) -> LightSampler {
     )
 }
 
-fn bvh_lights_of(built: &Built) -> LightSampler {
+fn lights_with(built: &Built, kind: LightSamplerKind) -> LightSampler {
     LightSampler::with_kind(
         &built.scene.mesh,
         &built.scene.materials,
         &built.scene.textures,
-        LightSamplerKind::Bvh,
-    )
-}
-
-fn alias_lights_of(built: &Built) -> LightSampler {
-    LightSampler::with_kind(
-        &built.scene.mesh,
-        &built.scene.materials,
-        &built.scene.textures,
-        LightSamplerKind::Alias,
+        kind,
     )
 }
 
@@ -182,10 +173,8 @@ fn cosine_density_is_normalised_and_matches_its_draws() {
 #[test]
 fn light_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    for (kind, lights) in [
-        ("bvh", bvh_lights_of(&built)),
-        ("alias", alias_lights_of(&built)),
-    ] {
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
         assert_eq!(lights.len(), 3);
         for (i, at) in receivers().into_iter().enumerate() {
             let pdf = LightPdf {
@@ -193,7 +182,7 @@ fn light_density_is_normalised_and_matches_its_draws() {
                 lights: &lights,
             };
             check_pdf(
-                &format!("light ({kind}, {at:?})"),
+                &format!("light ({kind:?}, {at:?})"),
                 &built,
                 &pdf,
                 1.0,
@@ -206,70 +195,91 @@ fn light_density_is_normalised_and_matches_its_draws() {
 #[test]
 fn mixture_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    let lights = lights_of(&built);
-    let normal = Vec3::new(0.2, 1.0, 0.1).normalize();
-    let light = LightPdf {
-        at: Receiver {
-            p: Vec3::ZERO,
-            n: normal,
-        },
-        lights: &lights,
-    };
-    let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
-    let mixture = MixturePdf::even(lambert_pdf(&lambert, normal), light);
-    check_pdf("mixture", &built, &mixture, 1.0, 14);
-    let sideways = Bsdf::lambert(Vec3::ONE, -Vec3::X, -Vec3::X);
-    let uneven = MixturePdf {
-        first: lambert_pdf(&sideways, -Vec3::X),
-        second: light,
-        weight: 0.2,
-    };
-    check_pdf("mixture 0.2/0.8", &built, &uneven, 1.0, 15);
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
+        let normal = Vec3::new(0.2, 1.0, 0.1).normalize();
+        let light = LightPdf {
+            at: Receiver {
+                p: Vec3::ZERO,
+                n: normal,
+            },
+            lights: &lights,
+        };
+        let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
+        let mixture = MixturePdf::even(lambert_pdf(&lambert, normal), light);
+        check_pdf(&format!("mixture ({kind:?})"), &built, &mixture, 1.0, 14);
+        let sideways = Bsdf::lambert(Vec3::ONE, -Vec3::X, -Vec3::X);
+        let uneven = MixturePdf {
+            first: lambert_pdf(&sideways, -Vec3::X),
+            second: light,
+            weight: 0.2,
+        };
+        check_pdf(
+            &format!("mixture 0.2/0.8 ({kind:?})"),
+            &built,
+            &uneven,
+            1.0,
+            15,
+        );
+    }
 }
 
 #[test]
 fn light_power_weighting_is_area_times_luminance() {
     let built = light_scene(false);
-    let lights = alias_lights_of(&built);
-    // Quad: area 4, Ke 1 → 4 (2 per half); triangle: area 0.5, Ke 4 → 2. The alias
-    // table's probabilities are 2/6 for each half of the quad, 2/6 for the triangle,
-    // wherever the receiver is.
-    for p in [Vec3::ZERO, Vec3::new(5.0, -3.0, 2.0)] {
-        let at = Receiver::at(p);
-        for prim in 0..3 {
-            let chosen = lights.choice_probability(at, prim);
-            assert!((chosen - 1.0 / 3.0).abs() < 1e-6, "{prim}: {chosen}");
+    for kind in [LightSamplerKind::Alias, LightSamplerKind::SolidAngle] {
+        let lights = lights_with(&built, kind);
+        // Quad: area 4, Ke 1 → 4 (2 per half); triangle: area 0.5, Ke 4 → 2. The alias
+        // table's probabilities are 2/6 for each half of the quad, 2/6 for the triangle,
+        // wherever the receiver is.
+        for p in [Vec3::ZERO, Vec3::new(5.0, -3.0, 2.0)] {
+            let at = Receiver::at(p);
+            for prim in 0..3 {
+                let chosen = lights.choice_probability(at, prim);
+                assert!((chosen - 1.0 / 3.0).abs() < 1e-6, "{prim}: {chosen}");
+            }
+            assert_eq!(lights.choice_probability(at, 7), 0.0);
         }
-        assert_eq!(lights.choice_probability(at, 7), 0.0);
     }
 }
 
 #[test]
 fn hidden_lights_make_void_draws_and_value_still_matches() {
     let built = light_scene(true);
-    let lights = lights_of(&built);
-    let pdf = LightPdf {
-        at: Receiver::at(Vec3::ZERO),
-        lights: &lights,
-    };
-    // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
-    let value = |dir: Vec3| {
-        let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
-        pdf.value(dir, hit.as_ref())
-    };
-    let integral: f64 = bin_integrals(&value, Vec3::Y, 20, 24, 12).iter().sum();
-    assert!(
-        integral < 0.95,
-        "occluder and back-facing light should hide mass"
-    );
-    check_pdf("light (occluded)", &built, &pdf, integral, 16);
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
+        let pdf = LightPdf {
+            at: Receiver::at(Vec3::ZERO),
+            lights: &lights,
+        };
+        // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
+        let value = |dir: Vec3| {
+            let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
+            pdf.value(dir, hit.as_ref())
+        };
+        let integral: f64 = bin_integrals(&value, Vec3::Y, 20, 24, 12).iter().sum();
+        assert!(
+            integral < 0.95,
+            "occluder and back-facing light should hide mass"
+        );
+        check_pdf(
+            &format!("light (occluded, {kind:?})"),
+            &built,
+            &pdf,
+            integral,
+            16,
+        );
+    }
 }
 
 #[test]
 fn light_value_equals_the_density_of_the_draw() {
-    for occluded in [false, true] {
+    for (occluded, kind) in [false, true]
+        .into_iter()
+        .flat_map(|o| LightSamplerKind::ALL.map(|k| (o, k)))
+    {
         let built = light_scene(occluded);
-        let lights = lights_of(&built);
+        let lights = lights_with(&built, kind);
         let at = receivers()[1];
         let pdf = LightPdf {
             at,

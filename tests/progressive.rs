@@ -2,8 +2,10 @@
 //! mid-pixel) and resuming it, through a checkpoint file or not, gives the image of an
 //! uninterrupted render bit for bit.
 
+mod common;
+
 use std::path::Path;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::AtomicUsize;
 use std::time::Duration;
 
 use ember::accel::{AccelKind, EmbreeAccel};
@@ -44,6 +46,7 @@ fn fixture() -> Fixture {
         seed: 11,
         integrator: IntegratorKind::Bsdf,
         light_sampler: Default::default(),
+        adaptive: None,
     };
     Fixture {
         camera: camera_settings.camera(settings.width, settings.height),
@@ -54,33 +57,17 @@ fn fixture() -> Fixture {
     }
 }
 
-/// Renders from `progress`, stopping once `stop_after` more samples were taken (the
-/// stop flag is checked before each sample, so this lands inside tiles and pixels).
+/// Renders from `progress`, stopping once `stop_after` more samples were taken.
 fn run(f: &Fixture, progress: Film, first_pass_spp: u32, stop_after: Option<u64>) -> Film {
-    let stop = AtomicUsize::new(0);
-    let taken = AtomicU64::new(0);
-    let on_samples = |n: u64| {
-        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
-        if stop_after.is_some_and(|limit| total >= limit) {
-            stop.store(2, Ordering::Relaxed);
-        }
-    };
-    let control = RenderControl {
-        stop: &stop,
-        on_samples: &on_samples,
-        first_pass_spp,
-        checkpoint: None,
-    };
-    let (progress, stats) = render_progressive(
+    common::render_stopping(
         &f.scene,
         &f.accel,
         &f.camera,
         &f.settings,
         progress,
-        &control,
-    );
-    assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
-    progress
+        first_pass_spp,
+        stop_after,
+    )
 }
 
 fn identity_of(scene: &Scene, camera: &CameraSettings, settings: &RenderSettings) -> Identity {
@@ -97,13 +84,14 @@ fn header(identity: Identity, settings: &RenderSettings) -> Header {
         samples: 0..settings.spp,
         shard: None,
         min_done: 0,
+        complete: false,
     }
 }
 
 fn bits(p: &Film) -> Vec<u64> {
-    p.sums
+    p.pixels
         .iter()
-        .flat_map(|s| s.to_array().map(f64::to_bits))
+        .flat_map(|s| s.radiance.to_array().map(f64::to_bits))
         .collect()
 }
 
@@ -113,8 +101,8 @@ fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
     let pixels = u64::from(f.settings.width * f.settings.height);
     let fresh = || Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let whole = run(&f, fresh(), u32::MAX, None);
-    assert!(whole.done.iter().all(|&d| d == f.settings.spp));
-    assert!(whole.kept.iter().all(|&k| k <= f.settings.spp));
+    assert!(whole.pixels.iter().all(|p| p.done == f.settings.spp));
+    assert!(whole.pixels.iter().all(|p| p.kept <= f.settings.spp));
 
     // The one-pass render of `render()` is the same image.
     let (film, _) = render(&f.scene, &f.accel, &f.camera, &f.settings, &|_| {});
@@ -135,8 +123,7 @@ fn interrupted_and_resumed_renders_equal_an_uninterrupted_one() {
             }
         }
         let resumed = run(&f, progress, 2, None);
-        assert_eq!(resumed.done, whole.done);
-        assert_eq!(resumed.kept, whole.kept);
+        assert_eq!(resumed.pixels, whole.pixels);
         assert_eq!(bits(&resumed), bits(&whole));
         assert_eq!(resumed.resolve(), whole.resolve());
     }
@@ -196,22 +183,30 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
         err.to_string().contains("accel embree") && err.to_string().contains("accel bvh"),
         "{err}"
     );
-    // So is the other light sampler: its samples differ.
-    let bvh_lights = RenderSettings {
-        light_sampler: ember::light::LightSamplerKind::Bvh,
-        ..f.settings
-    };
-    let err = checkpoint::load(
-        &path,
-        &identity_of(&f.scene, &f.camera_settings, &bvh_lights),
-        0..6,
-    )
-    .unwrap_err();
-    assert!(
-        err.to_string().contains("light-sampler bvh")
-            && err.to_string().contains("light-sampler alias"),
-        "{err}"
-    );
+    // So is another light sampler: its samples differ. The default is not named in
+    // the identity (which stays that of versions without the choice), so its side
+    // reads "(none)".
+    for (kind, name) in [
+        (ember::light::LightSamplerKind::SolidAngle, "solid-angle"),
+        (ember::light::LightSamplerKind::Bvh, "bvh"),
+    ] {
+        let other_lights = RenderSettings {
+            light_sampler: kind,
+            ..f.settings
+        };
+        let other_identity = identity_of(&f.scene, &f.camera_settings, &other_lights);
+        let err = checkpoint::load(&path, &other_identity, 0..6).unwrap_err();
+        assert!(
+            err.to_string().contains(&format!("light-sampler {name}"))
+                && err.to_string().contains("light-sampler (none)"),
+            "{err}"
+        );
+        // And the other way round: the default render refuses their checkpoint.
+        assert_eq!(
+            checkpoint::first_difference(&other_identity, &identity),
+            Some(("light-sampler".into(), name.into(), "(none)".into()))
+        );
+    }
     // A checkpoint continues the same sample range only.
     let err = checkpoint::load(&path, &identity, 2..6).unwrap_err();
     assert!(err.to_string().contains("needs 2..6"), "{err}");
@@ -247,6 +242,8 @@ fn periodic_checkpoints_are_whole_files() {
             every: Duration::from_millis(1),
             write: &write,
         }),
+        deadline: None,
+        on_pass: &|_| {},
     };
     let progress = Film::new(settings.width, settings.height, 0..settings.spp);
     let (progress, _) =
@@ -254,7 +251,11 @@ fn periodic_checkpoints_are_whole_files() {
     // However many were written meanwhile, the file on disk is a complete checkpoint.
     if path.exists() {
         let loaded = checkpoint::load(&path, &identity, 0..settings.spp).unwrap();
-        assert!(loaded.done.iter().zip(&progress.done).all(|(a, b)| a <= b));
+        assert!(loaded
+            .pixels
+            .iter()
+            .zip(&progress.pixels)
+            .all(|(a, b)| a.done <= b.done));
     }
     let names: Vec<_> = std::fs::read_dir(dir.path())
         .unwrap()
@@ -325,7 +326,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
     let identity = identity_of(&f.scene, &f.camera_settings, &f.settings);
     let film = Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let mut bytes = checkpoint::encode(&header(identity.clone(), &f.settings), &film);
-    for version in [1u32, 3] {
+    for version in [1u32, 2, 4] {
         bytes[8..12].copy_from_slice(&version.to_le_bytes());
         std::fs::write(&path, &bytes).unwrap();
         let err = checkpoint::load(&path, &identity, 0..6)
@@ -333,7 +334,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
             .to_string();
         assert!(
             err.contains(&format!("format version {version}"))
-                && err.contains("reads only version 2")
+                && err.contains("reads only version 3")
                 && !err.contains('\n'),
             "{err}"
         );

@@ -52,6 +52,7 @@ fn settings(size: u32, spp: u32, max_depth: u32) -> RenderSettings {
         seed: 3,
         integrator: IntegratorKind::Bsdf,
         light_sampler: Default::default(),
+        adaptive: None,
     }
 }
 

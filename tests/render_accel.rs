@@ -29,6 +29,7 @@ fn same_seed_same_image_with_either_backend() {
         seed: 7,
         integrator: IntegratorKind::Bsdf,
         light_sampler: Default::default(),
+        adaptive: None,
     };
     let device = Device::new("").unwrap();
     let (m, t) = (&scene.mesh.positions, &scene.mesh.triangles);

@@ -237,9 +237,9 @@ fn an_obj_larger_than_memory_is_refused_before_reading() {
             "render",
             cornell().to_str().unwrap(),
             "--width",
-            "8",
+            "4",
             "--height",
-            "8",
+            "4",
             "-o",
             out.to_str().unwrap(),
         ],
@@ -413,6 +413,7 @@ fn a_killed_render_leaves_a_whole_checkpoint() {
         seed: 5,
         integrator: IntegratorKind::default(),
         light_sampler: Default::default(),
+        adaptive: None,
     };
     let camera = CameraSettings::framing(lo, hi, 40.0);
     let identity = ember::render::identity(&scene, &camera, &settings, AccelKind::Embree);

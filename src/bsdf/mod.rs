@@ -145,6 +145,18 @@ impl Bsdf {
         !matches!(self.lobes, Lobes::Reflective { .. })
     }
 
+    /// The reflectance a denoiser is given as albedo: diffuse plus specular colour,
+    /// at most 1 (a delta lobe reflects or transmits everything: 1).
+    pub fn albedo(&self) -> Vec3 {
+        match self.lobes {
+            Lobes::Reflective {
+                diffuse, specular, ..
+            } => (diffuse + specular).min(Vec3::ONE),
+            Lobes::Mirror { reflectance } => reflectance,
+            Lobes::Dielectric { .. } => Vec3::ONE,
+        }
+    }
+
     /// A direction for light arriving towards `wo`, drawn from two uniforms in
     /// `[0, 1)`; `None` when the draw yields nothing (a direction below the surface).
     #[inline]

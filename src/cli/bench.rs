@@ -94,13 +94,8 @@ pub fn run(args: BenchArgs) -> Result<()> {
         bail!("nothing to benchmark: give an OBJ mesh or --procedural KIND:COUNT");
     }
     // Fail on an impossible output before spending minutes measuring.
-    if let Some(parent) = args.json_out.as_deref().and_then(Path::parent) {
-        if !parent.as_os_str().is_empty() && !parent.is_dir() {
-            bail!(
-                "cannot write the JSON output: {} is not a directory",
-                parent.display()
-            );
-        }
+    if let Some(path) = &args.json_out {
+        io::check_writable(path)?;
     }
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads: Vec<usize> = if args.threads.is_empty() {

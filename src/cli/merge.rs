@@ -1,13 +1,16 @@
 //! `ember merge`: shards of a split render into one image.
 
 use std::path::PathBuf;
+use std::process::ExitCode;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use anyhow::Result;
 use clap::Args;
 
+use ember::film::aov::Aov;
 use ember::film::merge;
-use ember::image;
+use ember::film::output::FilmOutput;
 
 #[derive(Args)]
 pub struct MergeArgs {
@@ -22,12 +25,18 @@ pub struct MergeArgs {
     /// only noisier). The missing ranges are listed.
     #[arg(long)]
     allow_partial: bool,
+    /// Render passes to add to an .exr output as layers (as `ember render --aov`).
+    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = super::render::parse_aov)]
+    aov: Vec<Aov>,
+    /// Denoise the merged image with Intel Open Image Denoise (as `ember render --denoise`).
+    #[arg(long)]
+    denoise: bool,
     #[command(flatten)]
     tone: super::ToneArgs,
 }
 
-pub fn run(args: MergeArgs) -> Result<()> {
-    image::check_output(&args.output)?;
+pub fn run(args: MergeArgs) -> Result<ExitCode> {
+    super::render::check_image_output(&args.output, &args.aov, args.denoise)?;
     let start = Instant::now();
     let (film, report) = merge::merge(&args.shards, args.allow_partial)?;
     for range in &report.missing {
@@ -42,7 +51,14 @@ pub fn run(args: MergeArgs) -> Result<()> {
             path.display()
         );
     }
-    film.resolve().save_with(&args.output, &args.tone.into())?;
+    let output = FilmOutput {
+        aovs: &args.aov,
+        denoise: args.denoise,
+        tonemap: &args.tone.into(),
+    };
+    // A signal now would cut the write short and leave its temporary file: it waits.
+    let stop = super::stop_on_signals()?;
+    output.write(&film, &args.output)?;
     eprintln!(
         "merged {} shards ({}x{}, {} spp) into {} in {:.2} s",
         args.shards.len(),
@@ -52,5 +68,15 @@ pub fn run(args: MergeArgs) -> Result<()> {
         args.output.display(),
         start.elapsed().as_secs_f64()
     );
-    Ok(())
+    match stop.load(Ordering::SeqCst) {
+        0 => Ok(ExitCode::SUCCESS),
+        signal => {
+            eprintln!(
+                "interrupted by {} while writing {}: it was completed first",
+                super::signal_name(signal),
+                args.output.display()
+            );
+            Ok(ExitCode::from((128 + signal).min(255) as u8))
+        }
+    }
 }

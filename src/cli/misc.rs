@@ -48,6 +48,13 @@ pub fn info() -> Result<()> {
         info.tasking_system,
         std::thread::available_parallelism().map_or(1, |n| n.get())
     );
+    match ember::denoise::available() {
+        Ok(oidn) => println!(
+            "denoiser: Open Image Denoise {} on its {} device ({})",
+            oidn.version, oidn.device, oidn.library
+        ),
+        Err(e) => println!("denoiser: none: {e}"),
+    }
     println!(
         "build: {} profile, target {}",
         if cfg!(debug_assertions) {

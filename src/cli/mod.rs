@@ -3,16 +3,52 @@
 //! stays out of the library.
 
 pub mod bench;
+pub mod denoise;
 pub mod merge;
 pub mod misc;
 pub mod render;
 
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Arc;
+
+use anyhow::{Context, Result};
 use clap::ValueEnum;
 use glam::Vec3;
+use signal_hook::consts::{SIGINT, SIGTERM};
+use signal_hook::iterator::Signals;
 
 use ember::accel::AccelKind;
 use ember::integrator::IntegratorKind;
 use ember::light::LightSamplerKind;
+
+/// From the call on, SIGINT and SIGTERM no longer end ember: the first one's number is
+/// stored in the returned flag (for the caller to stop its work and save it), later
+/// ones only count. GNU `timeout` and Slurm signal the whole process group, often more
+/// than once, and a save under way must complete (a write is atomic, but an exit
+/// half-way would leave its temporary file behind). SIGKILL still ends ember at once.
+/// Before the call, the default action ends the process: there is nothing to save yet.
+pub fn stop_on_signals() -> Result<Arc<AtomicUsize>> {
+    let stop = Arc::new(AtomicUsize::new(0));
+    let mut signals =
+        Signals::new([SIGINT, SIGTERM]).context("cannot install the signal handlers")?;
+    let first = stop.clone();
+    // Signals arrive here in order: the first one's number stays in `stop`.
+    std::thread::spawn(move || {
+        for signal in signals.forever() {
+            let _ = first.compare_exchange(0, signal as usize, Ordering::SeqCst, Ordering::SeqCst);
+        }
+    });
+    Ok(stop)
+}
+
+/// `SIGTERM` or `SIGINT`, for messages.
+pub fn signal_name(signal: usize) -> &'static str {
+    if signal == SIGTERM as usize {
+        "SIGTERM"
+    } else {
+        "SIGINT"
+    }
+}
 
 /// `--accel`: which structure answers the ray queries.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -83,10 +119,11 @@ impl From<IntegratorArg> for IntegratorKind {
 
 /// `I/N`: shard I (from 0) of N.
 pub fn parse_shard(s: &str) -> Result<(u32, u32), String> {
-    let bad = || format!("expected I/N with 0 <= I < N <= 1000000, got {s:?}");
+    let most = ember::limits::MAX_SHARDS;
+    let bad = || format!("expected I/N with 0 <= I < N <= {most}, got {s:?}");
     let (i, n) = s.trim().split_once('/').ok_or_else(bad)?;
     let (i, n): (u32, u32) = (i.parse().map_err(|_| bad())?, n.parse().map_err(|_| bad())?);
-    if i < n && n <= 1_000_000 {
+    if i < n && n <= most {
         Ok((i, n))
     } else {
         Err(bad())

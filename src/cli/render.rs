@@ -5,7 +5,7 @@
 use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -13,7 +13,6 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
-use signal_hook::consts::{SIGINT, SIGTERM};
 
 use super::{
     parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
@@ -21,11 +20,19 @@ use super::{
 };
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
+use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::image::{self, Tonemap};
-use ember::render::{self, Checkpointing, RenderControl, RenderSettings, RenderStats};
+use ember::render::{
+    self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
+};
 use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
+
+/// clap's ranges take `i64`.
+const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
+const MAX_SPP: i64 = ember::limits::MAX_SPP as i64;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -41,14 +48,36 @@ pub struct RenderArgs {
     #[arg(long, value_name = "I/N", value_parser = parse_shard, requires = "output", conflicts_with = "checkpoint")]
     shard: Option<(u32, u32)>,
     /// Image width in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     width: u32,
     /// Image height in pixels.
-    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=16384))]
+    #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE))]
     height: u32,
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=1_000_000))]
+    /// Samples per pixel (with --noise-threshold or --time-limit, the most any pixel takes).
+    #[arg(long, default_value_t = 64, value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
     spp: u32,
+    /// Adaptive sampling: after each pass, a pixel goes on only while its estimated
+    /// relative error (standard error over sqrt(mean² + 0.01), as `ember compare`'s
+    /// relMSE weighs it) is above T, in it or any pixel of its 5×5 neighbourhood. A render
+    /// whose pixels all reach T has a relMSE of about T².
+    #[arg(long, value_name = "T", value_parser = parse_threshold)]
+    noise_threshold: Option<f32>,
+    /// With --noise-threshold, the samples a pixel takes before it may stop
+    /// [default: 32, or --spp if fewer].
+    #[arg(long, value_name = "N", requires = "noise_threshold", value_parser = clap::value_parser!(u32).range(1..=MAX_SPP))]
+    min_spp: Option<u32>,
+    /// Render passes until SECONDS have gone by (from the start of rendering), then
+    /// write the image; earlier if --spp or --noise-threshold is reached first.
+    #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
+    time_limit: Option<f64>,
+    /// Render passes to add to an .exr output as layers, comma-separated:
+    /// albedo, normal, depth, variance, spp.
+    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = parse_aov)]
+    aov: Vec<Aov>,
+    /// Denoise the image with Intel Open Image Denoise (its RT filter, guided by the
+    /// albedo and normal passes); an .exr output keeps the noisy image as layer "noisy".
+    #[arg(long)]
+    denoise: bool,
     /// Maximum path length in segments, the camera ray included (1: emitters only,
     /// 2: direct lighting).
     #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u32).range(1..=1024))]
@@ -89,9 +118,12 @@ pub struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     integrator: IntegratorArg,
-    /// How light samples choose an emitter: an alias table by power alone, or a light
-    /// BVH weighing power, distance and orientation at the shading point (fewer samples
-    /// for the same error with many lights, but more time per sample).
+    /// How light samples choose an emitter and a point on it: `alias` (an alias table
+    /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
+    /// a direction by solid angle where the triangle spans a wide angle) or `bvh` (a
+    /// light BVH weighing power, distance and orientation at the shading point, then
+    /// as `solid-angle`: fewer samples for the same error with many lights, more time
+    /// per sample).
     #[arg(long, value_enum, default_value_t = LightSamplerArg::Alias)]
     light_sampler: LightSamplerArg,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
@@ -127,6 +159,11 @@ fn partial_output(output: &Path) -> PathBuf {
         .map(|e| e.to_string_lossy().into_owned())
         .unwrap_or_default();
     output.with_extension(format!("partial.{ext}"))
+}
+
+/// Whether two paths name one file (the same path, or links to one existing file).
+fn same_file(a: &Path, b: &Path) -> bool {
+    a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
 fn default_checkpoint(output: &Path) -> PathBuf {
@@ -181,6 +218,10 @@ struct RenderPlan {
     background: Option<Vec3>,
     env: Option<EnvRequest>,
     tonemap: Tonemap,
+    /// Passes written beside the image (EXR output only).
+    aovs: Vec<Aov>,
+    denoise: bool,
+    time_limit: Option<Duration>,
     shard: Option<(u32, u32)>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
@@ -197,6 +238,18 @@ impl RenderPlan {
         let samples = args
             .shard
             .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
+        let adaptive = args.noise_threshold.map(|threshold| {
+            let whole = Adaptive {
+                threshold,
+                min_spp: args
+                    .min_spp
+                    .unwrap_or_else(|| Adaptive::default_min_spp(args.spp)),
+            };
+            // Each shard aims at the error that its merge with the others reaches T.
+            args.shard.map_or(whole, |(_, n)| whole.for_shard_of(n))
+        });
+        let mut aovs = args.aov;
+        aovs.dedup();
         RenderPlan {
             scene: args.scene,
             output,
@@ -213,6 +266,7 @@ impl RenderPlan {
                 seed: args.seed,
                 integrator: args.integrator.into(),
                 light_sampler: args.light_sampler.into(),
+                adaptive,
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -227,6 +281,9 @@ impl RenderPlan {
                 rotate: args.env_rotate,
             }),
             tonemap: args.tone.into(),
+            aovs,
+            denoise: args.denoise,
+            time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
             samples,
         }
@@ -239,11 +296,7 @@ impl RenderPlan {
     /// Refuses what can be refused before loading anything: an unwritable or unknown
     /// output, bad environment, a missing checkpoint, an image too large for memory.
     fn check(&self) -> Result<()> {
-        if self.shard.is_some() {
-            ember::io::check_writable(&self.output)?;
-        } else {
-            image::check_output(&self.output)?;
-        }
+        self.check_outputs()?;
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
         if self.background.is_some_and(|b| b.min_element() < 0.0) {
@@ -261,11 +314,40 @@ impl RenderPlan {
             .checked_mul(u64::from(self.settings.spp))
             .context("width × height × spp overflows")?;
         let (w, h) = (self.settings.width, self.settings.height);
+        // Denoising runs once the render is done, beside the film.
+        let denoise = if self.denoise {
+            ember::denoise::memory_bytes(w, h)
+        } else {
+            0
+        };
         ember::limits::check_fits(
             &format!("a {w}x{h} image"),
-            render::render_memory_bytes(w, h),
+            render::render_memory_bytes(w, h) + denoise,
         )
         .map_err(anyhow::Error::msg)
+    }
+
+    /// Every file this run may write, checked before any work: the image and the
+    /// partial image an interruption leaves (whole renders; their `--aov` passes are
+    /// layers of the same EXR), and the checkpoint (or the shard file, which is its own
+    /// checkpoint). An interruption may come at any time,
+    /// so the partial image and the checkpoint are checked even when none is asked for.
+    fn check_outputs(&self) -> Result<()> {
+        if self.shard.is_some() && (self.denoise || !self.aovs.is_empty()) {
+            bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
+        }
+        if self.shard.is_none() {
+            check_image_output(&self.output, &self.aovs, self.denoise)?;
+            check_image_output(&partial_output(&self.output), &self.aovs, self.denoise)?;
+            if same_file(&self.checkpoint, &self.output) {
+                bail!(
+                    "the checkpoint {} would overwrite the image: give another --checkpoint",
+                    self.checkpoint.display()
+                );
+            }
+        }
+        ember::io::check_writable(&self.checkpoint)?;
+        Ok(())
     }
 
     /// The header of this render's checkpoints or shard file.
@@ -278,6 +360,7 @@ impl RenderPlan {
             samples: self.samples.clone(),
             shard: self.shard,
             min_done: 0,
+            complete: false,
         }
     }
 }
@@ -294,6 +377,38 @@ fn parse_env_scale(s: &str) -> Result<f32, String> {
         Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
         _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
     }
+}
+
+fn parse_threshold(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a relative error > 0 (e.g. 0.05)")),
+    }
+}
+
+/// Refuses, before any work, an image output that cannot be written or cannot hold
+/// what is asked of it, and `--denoise` in an ember that cannot denoise.
+pub fn check_image_output(output: &Path, aovs: &[Aov], denoise: bool) -> Result<()> {
+    image::check_output(output)?;
+    let exr = image::OutputFormat::from_path(output)? == image::OutputFormat::Exr;
+    if !aovs.is_empty() && !exr {
+        bail!(
+            "--aov needs an .exr output, which holds the passes as layers beside the image; \
+             {} holds one image",
+            output.display()
+        );
+    }
+    if denoise {
+        ember::denoise::available()?;
+    }
+    Ok(())
+}
+
+pub fn parse_aov(s: &str) -> Result<Aov, String> {
+    Aov::from_name(s.trim()).ok_or_else(|| {
+        let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown pass {s:?}: choose from {}", names.join(", "))
+    })
 }
 
 fn parse_degrees(s: &str) -> Result<f32, String> {
@@ -427,7 +542,8 @@ fn finish_render<A: Accel>(
         Film::new(s.width, s.height, plan.samples.clone())
     };
     let header = plan.header(identity);
-    let stop = stop_on_signals()?;
+    // From here on Ctrl-C or SIGTERM stops the workers and writes what there is.
+    let stop = super::stop_on_signals()?;
     let save_checkpoint = |film: &Film| -> Result<()> {
         checkpoint::save(&plan.checkpoint, &header, film).context("cannot write the checkpoint")
     };
@@ -443,48 +559,57 @@ fn finish_render<A: Accel>(
         every,
         write: &periodic,
     });
-    let (film, stats) = pool.install(|| {
-        render_with_progress(loaded, accel, &plan.settings, film, &stop, checkpointing)
-    });
+    let (film, stats, passes) =
+        pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
 
+    let write_image = |path: &Path| write_film_image(plan, &film, path);
+    let write_checkpoint = || save_checkpoint(&film);
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
-        if plan.shard.is_none() {
-            film.resolve()
-                .save_with(&partial_output(&plan.output), &plan.tonemap)?;
+        let partial = partial_output(&plan.output);
+        match plan.shard {
+            Some(_) => write_checkpoint()?,
+            None => write_both(&partial, || write_image(&partial), write_checkpoint)?,
         }
-        save_checkpoint(&film)?;
         report_interrupted(plan, &film, signal);
         return Ok(ExitCode::from((128 + signal).min(255) as u8));
     }
-    if plan.shard.is_some() {
-        save_checkpoint(&film)?;
-    } else {
-        film.resolve().save_with(&plan.output, &plan.tonemap)?;
-        if plan.checkpoint_every.is_some() || plan.resume {
-            // Keep the final state: a later --resume with a higher --spp refines it.
-            save_checkpoint(&film)?;
+    // Keep the final state of a whole render with checkpoints: a later --resume with a
+    // higher --spp refines it.
+    let keep_checkpoint = plan.checkpoint_every.is_some() || plan.resume;
+    match plan.shard {
+        Some(_) => write_checkpoint()?,
+        None if keep_checkpoint => {
+            write_both(&plan.output, || write_image(&plan.output), write_checkpoint)?
         }
+        None => write_image(&plan.output)?,
     }
-    report_finished(plan, accel.name(), &stats, loaded.report.triangles);
+    report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
     Ok(ExitCode::SUCCESS)
 }
 
-/// From here on Ctrl-C or SIGTERM stops the workers and writes what there is; a second
-/// one exits at once. (Before, the default action ends the process: there is nothing
-/// to save yet.) The returned flag holds the signal's number once one came.
-fn stop_on_signals() -> Result<Arc<AtomicUsize>> {
-    let stop = Arc::new(AtomicUsize::new(0));
-    let stopping = Arc::new(AtomicBool::new(false));
-    for signal in [SIGINT, SIGTERM] {
-        // The conditional shutdown runs first: on the first signal `stopping` is still
-        // false, so only the flags below are set.
-        signal_hook::flag::register_conditional_shutdown(signal, 128 + signal, stopping.clone())
-            .and_then(|_| signal_hook::flag::register(signal, stopping.clone()))
-            .and_then(|_| signal_hook::flag::register_usize(signal, stop.clone(), signal as usize))
-            .context("cannot install the signal handlers")?;
-    }
-    Ok(stop)
+/// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
+/// as a layer in an EXR), with the `--aov` passes as layers of an EXR.
+fn write_film_image(plan: &RenderPlan, film: &Film, path: &Path) -> Result<()> {
+    let output = FilmOutput {
+        aovs: &plan.aovs,
+        denoise: plan.denoise,
+        tonemap: &plan.tonemap,
+    };
+    Ok(output.write(film, path)?)
+}
+
+/// Writes the image at `image` and then the checkpoint; when the checkpoint fails, the
+/// image is removed again: a run that fails leaves no file behind.
+fn write_both(
+    image: &Path,
+    write_image: impl FnOnce() -> Result<()>,
+    write_checkpoint: impl FnOnce() -> Result<()>,
+) -> Result<()> {
+    write_image()?;
+    write_checkpoint().inspect_err(|_| {
+        let _ = std::fs::remove_file(image);
+    })
 }
 
 fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
@@ -547,11 +672,7 @@ fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_bytes: 
 }
 
 fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
-    let name = if signal == SIGTERM as usize {
-        "SIGTERM"
-    } else {
-        "SIGINT"
-    };
+    let name = super::signal_name(signal);
     let image = match plan.shard {
         None => format!(
             "the partial image {} and ",
@@ -569,7 +690,13 @@ fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
     );
 }
 
-fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangles: usize) {
+fn report_finished(
+    plan: &RenderPlan,
+    accel: &str,
+    stats: &RenderStats,
+    passes: &PassReport,
+    triangles: usize,
+) {
     let s = &plan.settings;
     let dropped = match stats.dropped_samples {
         0 => String::new(),
@@ -594,12 +721,16 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
             stats.light_build_seconds * 1e3
         ),
     };
+    let spp = if s.adaptive.is_some() || plan.time_limit.is_some() {
+        spp_summary(passes)
+    } else {
+        format!("{} spp", s.spp)
+    };
     eprintln!(
-        "wrote {}: {}x{}, {} spp{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{lights}{peak}",
+        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{dropped}{lights}{peak}",
         plan.output.display(),
         s.width,
         s.height,
-        s.spp,
         shard_note(plan),
         stats.seconds,
         stats.samples_per_second(),
@@ -610,28 +741,65 @@ fn report_finished(plan: &RenderPlan, accel: &str, stats: &RenderStats, triangle
 fn render_with_progress<A: Accel>(
     loaded: &LoadedScene,
     accel: &A,
-    settings: &RenderSettings,
+    plan: &RenderPlan,
     film: Film,
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
-) -> (Film, RenderStats) {
-    let total = u64::from(settings.width) * u64::from(settings.height) * film.samples.len() as u64;
-    let bar = ProgressBar::new(total);
-    bar.set_position(film.total_done());
+) -> (Film, RenderStats, PassReport) {
+    let settings = &plan.settings;
+    let started = Instant::now();
+    let deadline = plan.time_limit.map(|limit| started + limit);
+    // A time-limited render's bar is its time; any other's, its samples, less those
+    // that converged pixels will not take.
+    let bar = match plan.time_limit {
+        Some(limit) => ProgressBar::new(limit.as_millis().max(1) as u64),
+        None => {
+            let pixels = u64::from(settings.width) * u64::from(settings.height);
+            let bar = ProgressBar::new(pixels * film.samples.len() as u64);
+            bar.set_position(film.total_done());
+            bar
+        }
+    };
     bar.set_style(
         ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta})",
+            "{spinner} [{elapsed_precise}] {wide_bar} {percent}% (eta {eta}) {msg}",
         )
         .expect("static template is valid"),
     );
+    let on_samples = |samples: u64| match plan.time_limit {
+        Some(limit) => bar.set_position(started.elapsed().min(limit).as_millis() as u64),
+        None => bar.inc(samples),
+    };
+    let on_pass = |report: &PassReport| {
+        if plan.time_limit.is_none() {
+            bar.set_length(bar.position() + report.remaining);
+        }
+        if settings.adaptive.is_some() || plan.time_limit.is_some() {
+            bar.set_message(spp_summary(report));
+        }
+    };
     let control = RenderControl {
         stop,
-        on_samples: &|samples| bar.inc(samples),
+        on_samples: &on_samples,
         first_pass_spp: 1,
         checkpoint,
+        deadline,
+        on_pass: &on_pass,
     };
     let (scene, camera) = (&loaded.scene, &loaded.camera);
-    let result = render::render_progressive(scene, accel, camera, settings, film, &control);
+    let (film, stats) = render::render_progressive(scene, accel, camera, settings, film, &control);
     bar.finish_and_clear();
-    result
+    let report = PassReport::of(&film);
+    (film, stats, report)
+}
+
+/// `spp 16/23.5/64 (min/mean/max), 41.2% converged`.
+fn spp_summary(report: &PassReport) -> String {
+    format!(
+        "spp {}/{:.1}/{} (min/mean/max), {:.1}% converged",
+        report.min_spp,
+        report.mean_spp,
+        report.max_spp,
+        100.0 * report.converged_fraction()
+    )
 }

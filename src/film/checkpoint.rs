@@ -3,12 +3,16 @@
 //! files; they are written atomically and checked whole on reading.
 //!
 //! Layout (little-endian): the magic `EMBERCKP`, a `u32` format version, a `u32` length
-//! and that many bytes of JSON header (see [`Header`]), then per pixel row by row `f64` ×
-//! 3 sums, `u32` finite samples, `u32` samples taken, and last the `u64` XXH3 hash of
+//! and that many bytes of JSON header (see [`Header`]), then per pixel row by row its
+//! [`PixelSums`] ([`PIXEL_BYTES`]: `f64` × 3 radiance sums and × 3 sums of squares,
+//! `f32` × 3 albedo, × 3 normal and × 1 depth sums, `u32` finite samples, `u32` samples
+//! taken, `u32` flags with bit 0 "converged"), and last the `u64` XXH3 hash of
 //! everything before it, so a damaged or truncated file is refused.
 //!
 //! Version history: 1 (no accel, no algorithm version, a scene hash over `Debug` text,
-//! no sample range, FNV-1a); 2 (this one). Files of other versions are refused.
+//! no sample range, FNV-1a); 2 (radiance sums and counts only); 3 (this one: the render
+//! passes, squares for the variance, adaptive sampling's flag, a "complete" claim).
+//! Files of other versions are refused.
 
 use std::fs::File;
 use std::io::{BufReader, Read};
@@ -19,13 +23,14 @@ use glam::DVec3;
 use serde_json::{json, Map, Value};
 use xxhash_rust::xxh3::Xxh3;
 
-use super::Film;
+use super::{Film, PixelSums};
 use crate::io::{self, WriteError};
 
 const MAGIC: &[u8; 8] = b"EMBERCKP";
 /// The film file format this ember reads and writes.
-pub const FORMAT_VERSION: u32 = 2;
-const PIXEL_BYTES: usize = 3 * 8 + 4 + 4;
+pub const FORMAT_VERSION: u32 = 3;
+/// The bytes of one pixel's record.
+pub const PIXEL_BYTES: usize = 6 * 8 + 7 * 4 + 3 * 4;
 /// A header this long is surely not ours (it holds a few hundred bytes of settings).
 const MAX_HEADER_BYTES: u32 = 1 << 20;
 
@@ -45,8 +50,11 @@ pub struct Header {
     pub samples: Range<u32>,
     /// `(I, N)` for shard I of N, `None` for a checkpoint of a whole render.
     pub shard: Option<(u32, u32)>,
-    /// Fewest samples any pixel has (`samples.len()` when the film is complete).
+    /// Fewest samples any pixel has (`samples.len()` when the film is complete without
+    /// adaptive sampling).
     pub min_done: u32,
+    /// Whether every pixel has all its samples or was stopped by adaptive sampling.
+    pub complete: bool,
 }
 
 impl Header {
@@ -85,6 +93,8 @@ pub enum CheckpointError {
     },
     #[error("{path} already has {done} samples per pixel, more than --spp {spp}")]
     PastTarget { path: PathBuf, done: u32, spp: u32 },
+    #[error("{path}: {reason}")]
+    TooLarge { path: PathBuf, reason: String },
     #[error(transparent)]
     Write(#[from] WriteError),
 }
@@ -103,6 +113,7 @@ fn header_json(header: &Header) -> String {
         "samples": [header.samples.start, header.samples.end],
         "shard": header.shard.map(|(i, n)| [i, n]),
         "min_done": header.min_done,
+        "complete": header.complete,
     })
     .to_string()
 }
@@ -114,24 +125,64 @@ pub fn encode(header: &Header, film: &Film) -> Vec<u8> {
         height: film.height,
         samples: film.samples.clone(),
         min_done: film.min_done(),
+        complete: film.is_complete(),
         ..header.clone()
     };
     let json = header_json(&header);
-    let mut out = Vec::with_capacity(24 + json.len() + film.done.len() * PIXEL_BYTES);
+    let mut out = Vec::with_capacity(24 + json.len() + film.pixels.len() * PIXEL_BYTES);
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(json.as_bytes());
-    for ((s, k), d) in film.sums.iter().zip(&film.kept).zip(&film.done) {
-        for c in s.to_array() {
-            out.extend_from_slice(&c.to_le_bytes());
-        }
-        out.extend_from_slice(&k.to_le_bytes());
-        out.extend_from_slice(&d.to_le_bytes());
+    for p in &film.pixels {
+        encode_pixel(p, &mut out);
     }
     let hash = xxhash_rust::xxh3::xxh3_64(&out);
     out.extend_from_slice(&hash.to_le_bytes());
     out
+}
+
+fn encode_pixel(p: &PixelSums, out: &mut Vec<u8>) {
+    for c in p
+        .radiance
+        .to_array()
+        .into_iter()
+        .chain(p.radiance_sq.to_array())
+    {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    let floats = p.albedo.to_array().into_iter().chain(p.normal.to_array());
+    for c in floats.chain([p.depth]) {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    for w in [p.kept, p.done, u32::from(p.converged)] {
+        out.extend_from_slice(&w.to_le_bytes());
+    }
+}
+
+/// One pixel's record, or `None` where its values cannot be a film's: non-finite or
+/// negative sums, more kept than taken samples, unknown flags.
+fn decode_pixel(px: &[u8]) -> Option<PixelSums> {
+    let f64_at = |k: usize| f64::from_le_bytes(px[8 * k..8 * k + 8].try_into().expect("8"));
+    let f32_at = |k: usize| f32::from_le_bytes(px[48 + 4 * k..52 + 4 * k].try_into().expect("4"));
+    let u32_at = |k: usize| u32::from_le_bytes(px[76 + 4 * k..80 + 4 * k].try_into().expect("4"));
+    let p = PixelSums {
+        radiance: DVec3::new(f64_at(0), f64_at(1), f64_at(2)),
+        radiance_sq: DVec3::new(f64_at(3), f64_at(4), f64_at(5)),
+        albedo: glam::Vec3::new(f32_at(0), f32_at(1), f32_at(2)),
+        normal: glam::Vec3::new(f32_at(3), f32_at(4), f32_at(5)),
+        depth: f32_at(6),
+        kept: u32_at(0),
+        done: u32_at(1),
+        converged: u32_at(2) == 1,
+    };
+    let finite = p.radiance.is_finite()
+        && p.radiance_sq.is_finite()
+        && p.albedo.is_finite()
+        && p.normal.is_finite()
+        && p.depth.is_finite();
+    (finite && p.radiance_sq.min_element() >= 0.0 && p.kept <= p.done && u32_at(2) <= 1)
+        .then_some(p)
 }
 
 /// Writes a film file atomically: the file is the old one or the whole new one.
@@ -139,7 +190,9 @@ pub fn save(path: &Path, header: &Header, film: &Film) -> Result<(), CheckpointE
     Ok(io::write_atomically(path, &encode(header, film))?)
 }
 
-/// A film file opened for reading: its header is read and checked for form; the pixels
+/// A film file opened for reading: the one reader of shards and checkpoints (`ember
+/// merge` and `--resume` alike), which trusts nothing in the file. Its header is read
+/// and checked whole ([`check_header`]) before anything is allocated from it; the pixels
 /// follow one by one ([`FilmReader::read_pixels`]), hashed as they go, so that a large
 /// file is never held in memory whole.
 pub struct FilmReader {
@@ -166,14 +219,16 @@ impl FilmReader {
         let mut json = vec![0; json_len as usize];
         reader.read_hashed(&mut json)?;
         reader.header = parse_header(&json).map_err(|reason| reader.invalid(&reason))?;
-        let h = &reader.header;
-        let pixels = u64::from(h.width) * u64::from(h.height);
-        let expected = 16 + u64::from(json_len) + pixels * PIXEL_BYTES as u64 + 8;
-        if file_len != expected {
-            return Err(reader.invalid(&format!(
-                "{file_len} bytes where its header promises {expected} (truncated or damaged)"
-            )));
-        }
+        check_header(&reader.header, json_len, file_len).map_err(|r| reader.invalid(&r))?;
+        let (w, h) = (reader.header.width, reader.header.height);
+        crate::limits::check_fits(
+            &format!("the {w}x{h} film it holds"),
+            crate::render::render_memory_bytes(w, h),
+        )
+        .map_err(|reason| CheckpointError::TooLarge {
+            path: path.to_owned(),
+            reason,
+        })?;
         Ok(reader)
     }
 
@@ -212,15 +267,17 @@ impl FilmReader {
         }
     }
 
-    /// Calls `add(i, sum, kept, done)` for every pixel in order, then checks the hash:
-    /// on an error, what `add` received must be thrown away.
+    /// Calls `add(i, pixel)` for every pixel in order, then checks the hash and the
+    /// header's claims against the pixels: on an error, what `add` received must be
+    /// thrown away.
     pub fn read_pixels(
         mut self,
-        mut add: impl FnMut(usize, DVec3, u32, u32),
+        mut add: impl FnMut(usize, &PixelSums),
     ) -> Result<(), CheckpointError> {
         let pixels = self.header.width as usize * self.header.height as usize;
         let range_len = self.header.samples.len() as u32;
         let mut chunk = vec![0u8; PIXEL_BYTES * 4096];
+        let mut tally = PixelTally::new();
         let mut i = 0;
         while i < pixels {
             let n = (pixels - i).min(4096);
@@ -230,13 +287,13 @@ impl FilmReader {
                 .map_err(|_| self.invalid("too short (truncated)"))?;
             self.hasher.update(bytes);
             for px in bytes.chunks_exact(PIXEL_BYTES) {
-                let f = |k: usize| f64::from_le_bytes(px[8 * k..8 * k + 8].try_into().expect("8"));
-                let u = |at: usize| u32::from_le_bytes(px[at..at + 4].try_into().expect("4"));
-                let (sum, kept, done) = (DVec3::new(f(0), f(1), f(2)), u(24), u(28));
-                if kept > done || done > range_len || !sum.is_finite() {
-                    return Err(self.invalid(&format!("inconsistent data at pixel {i}")));
+                match decode_pixel(px) {
+                    Some(p) if p.done <= range_len => {
+                        tally.add(i, &p, &self.header);
+                        add(i, &p)
+                    }
+                    _ => return Err(self.invalid(&format!("inconsistent data at pixel {i}"))),
                 }
-                add(i, sum, kept, done);
                 i += 1;
             }
         }
@@ -247,25 +304,17 @@ impl FilmReader {
         if self.hasher.digest() != u64::from_le_bytes(stored) {
             return Err(self.invalid("checksum mismatch (damaged)"));
         }
-        Ok(())
+        match tally.disagreement(&self.header) {
+            Some(reason) => Err(self.invalid(&reason)),
+            None => Ok(()),
+        }
     }
 
     /// The whole film, checked.
     pub fn read_film(self) -> Result<Film, CheckpointError> {
         let h = &self.header;
         let mut film = Film::new(h.width, h.height, h.samples.clone());
-        let (path, min_done) = (self.path.clone(), h.min_done);
-        self.read_pixels(|i, sum, kept, done| {
-            film.sums[i] = sum;
-            film.kept[i] = kept;
-            film.done[i] = done;
-        })?;
-        if film.min_done() != min_done {
-            return Err(CheckpointError::Invalid {
-                path,
-                reason: "the header's sample count disagrees with the pixels".into(),
-            });
-        }
+        self.read_pixels(|i, p| film.pixels[i] = *p)?;
         Ok(film)
     }
 }
@@ -307,24 +356,161 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
         samples: start..end,
         shard: pair("shard")?,
         min_done: uint("min_done")?,
+        complete: v
+            .get("complete")
+            .and_then(Value::as_bool)
+            .ok_or("header lacks complete")?,
     };
-    if start > end || end > header.spp || header.min_done > end - start {
-        return Err("inconsistent sample range".into());
-    }
-    if header.shard.is_some_and(|(i, n)| i >= n) {
-        return Err("bad shard number".into());
-    }
     Ok(header)
 }
 
-/// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours).
+/// The length of a film file of `pixels` pixels whose JSON header is `json_len` bytes:
+/// preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
+fn file_len_for(json_len: u32, pixels: u64) -> Option<u64> {
+    pixels
+        .checked_mul(PIXEL_BYTES as u64)?
+        .checked_add(16 + u64::from(json_len) + 8)
+}
+
+/// Checks what a header claims before anything is read or allocated from it: its size
+/// against the identity it carries and ember's limits, its sample range against its
+/// spp and shard number, its sample counts against its range, and the file's length
+/// against the size (with checked arithmetic). What the pixels must then agree with
+/// is checked as they are read ([`FilmReader::read_pixels`]).
+fn check_header(h: &Header, json_len: u32, file_len: u64) -> Result<(), String> {
+    use crate::limits::{MAX_IMAGE_SIDE, MAX_SHARDS, MAX_SPP};
+    for (key, value) in [("width", h.width), ("height", h.height)] {
+        if !(1..=MAX_IMAGE_SIDE).contains(&value) {
+            return Err(format!("its {key} {value} is outside 1..={MAX_IMAGE_SIDE}"));
+        }
+        let carried = h.identity.iter().find(|(k, _)| k == key);
+        let carried = carried.map_or("none", |(_, v)| v.as_str());
+        if carried != value.to_string() {
+            return Err(format!(
+                "its {key} {value} disagrees with the {key} {carried} of the render it names"
+            ));
+        }
+    }
+    if !(1..=MAX_SPP).contains(&h.spp) {
+        return Err(format!("its spp {} is outside 1..={MAX_SPP}", h.spp));
+    }
+    let expected = match h.shard {
+        Some((i, n)) if i >= n || n > MAX_SHARDS => {
+            return Err(format!(
+                "shard {i}/{n} is not one of 0/N .. N-1/N, N ≤ {MAX_SHARDS}"
+            ))
+        }
+        Some(shard) => super::shard_samples(h.spp, shard),
+        None => 0..h.spp,
+    };
+    if h.samples != expected {
+        return Err(format!(
+            "as {} of {} spp it would hold samples {expected:?}, but it claims samples {:?}",
+            h.label(),
+            h.spp,
+            h.samples
+        ));
+    }
+    let len = h.samples.len() as u32;
+    if h.min_done > len || (h.min_done == len && !h.complete) {
+        return Err(format!(
+            "it claims {} samples in every pixel of its {len}, and to be {}",
+            h.min_done,
+            if h.complete { "complete" } else { "incomplete" }
+        ));
+    }
+    let pixels = u64::from(h.width) * u64::from(h.height);
+    match file_len_for(json_len, pixels) {
+        Some(expected) if expected == file_len => Ok(()),
+        expected => Err(format!(
+            "{file_len} bytes where its {}x{} header promises {} (truncated or damaged)",
+            h.width,
+            h.height,
+            expected.map_or("more than 2^64".into(), |n| n.to_string())
+        )),
+    }
+}
+
+/// What the pixels of a film file hold, against which its header's claims are
+/// checked once they are all read.
+struct PixelTally {
+    /// The fewest samples any pixel has.
+    fewest: u32,
+    /// The first pixel with fewer samples than the header claims for all: (index, done).
+    short: Option<(usize, u32)>,
+    /// The first pixel neither finished nor stopped by adaptive sampling.
+    unfinished: Option<(usize, u32)>,
+}
+
+impl PixelTally {
+    fn new() -> Self {
+        PixelTally {
+            fewest: u32::MAX,
+            short: None,
+            unfinished: None,
+        }
+    }
+
+    fn add(&mut self, i: usize, p: &PixelSums, header: &Header) {
+        self.fewest = self.fewest.min(p.done);
+        if p.done < header.min_done && self.short.is_none() {
+            self.short = Some((i, p.done));
+        }
+        if !p.converged && p.done < header.samples.len() as u32 && self.unfinished.is_none() {
+            self.unfinished = Some((i, p.done));
+        }
+    }
+
+    /// Why the header's claims ("every pixel has at least `min_done` samples", and
+    /// "complete") disagree with the pixels, if they do.
+    fn disagreement(&self, h: &Header) -> Option<String> {
+        let at = |i: usize| (i as u32 % h.width, i as u32 / h.width);
+        let len = h.samples.len();
+        if let (true, Some((i, done))) = (h.complete, self.unfinished) {
+            let (x, y) = at(i);
+            return Some(format!(
+                "it claims to be complete, but pixel ({x}, {y}) has {done} of its {len} samples \
+                 and was not stopped by adaptive sampling"
+            ));
+        }
+        if let Some((i, done)) = self.short {
+            let (x, y) = at(i);
+            return Some(format!(
+                "it claims {} samples in every pixel, but pixel ({x}, {y}) has {done}",
+                h.min_done
+            ));
+        }
+        if self.fewest != h.min_done {
+            return Some(format!(
+                "it claims {} samples in every pixel, but every pixel has {} or more",
+                h.min_done, self.fewest
+            ));
+        }
+        (!h.complete && self.unfinished.is_none())
+            .then(|| "it claims to be incomplete, but every pixel is finished".into())
+    }
+}
+
+/// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours);
+/// a key only one side has (such as `light-sampler`, named only when not the
+/// default) is a difference, its missing value written `(none)`.
 pub fn first_difference(theirs: &Identity, ours: &Identity) -> Option<(String, String, String)> {
-    ours.iter().find_map(|(key, value)| {
-        let other = theirs
+    let value_in = |identity: &Identity, key: &str| {
+        identity
             .iter()
             .find(|(k, _)| k == key)
-            .map_or("(none)", |(_, v)| v.as_str());
-        (other != value).then(|| (key.clone(), other.to_owned(), value.clone()))
+            .map_or("(none)", |(_, v)| v.as_str())
+            .to_owned()
+    };
+    let ours_first = ours.iter().find_map(|(key, value)| {
+        let other = value_in(theirs, key);
+        (other != *value).then(|| (key.clone(), other, value.clone()))
+    });
+    ours_first.or_else(|| {
+        theirs
+            .iter()
+            .find(|(key, _)| !ours.iter().any(|(k, _)| k == key))
+            .map(|(key, value)| (key.clone(), value.clone(), "(none)".to_owned()))
     })
 }
 
@@ -352,7 +538,7 @@ pub fn load(
             ours: samples,
         });
     }
-    let most = film.done.iter().copied().max().unwrap_or(0);
+    let most = film.pixels.iter().map(|p| p.done).max().unwrap_or(0);
     if most > samples.len() as u32 {
         return Err(CheckpointError::PastTarget {
             path: path.to_owned(),

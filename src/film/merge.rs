@@ -100,7 +100,7 @@ pub fn merge(paths: &[PathBuf], allow_partial: bool) -> Result<(Film, MergeRepor
         missing: gaps(&sorted, spp),
         incomplete: sorted
             .iter()
-            .filter(|(_, h)| h.min_done < h.samples.len() as u32)
+            .filter(|(_, h)| !h.complete)
             .map(|(p, _)| p.clone())
             .collect(),
     };
@@ -113,7 +113,7 @@ pub fn merge(paths: &[PathBuf], allow_partial: bool) -> Result<(Film, MergeRepor
         if reader.header != *header {
             return Err(MergeError::Changed { path: path.clone() });
         }
-        reader.read_pixels(|i, sum, kept, done| film.add_pixel(i, sum, kept, done))?;
+        reader.read_pixels(|i, p| film.pixels[i].merge(p))?;
     }
     Ok((film, report))
 }

@@ -1,33 +1,134 @@
-//! The film: where a render's samples are added. Per pixel it holds the sum of the
-//! finite sample estimates (in `f64`, added in sample order), how many of them were
-//! finite, and how many samples were taken, for one range of sample indices that is the
-//! same for every pixel (`0..spp` for a whole render, a shard's share otherwise).
+//! The film: where a render's samples are added. Per pixel it holds sums over the finite
+//! sample estimates ([`PixelSums`]: the radiance in `f64`, added in sample order, its
+//! square, and the render passes), how many of them were finite, and how many samples
+//! were taken, for one range of sample indices that is the same for every pixel
+//! (`0..spp` for a whole render, a shard's share otherwise).
 //!
 //! Sample `i` of a pixel always uses the random stream `(seed, pixel, i)` and is added
 //! after samples `first..i`, so however a render is split into passes, interrupted and
 //! resumed, the sums are bit for bit the same. Films of adjacent sample ranges merge
-//! (shards); a film resolves to an [`Image`]; [`checkpoint`] stores one in a file.
+//! (shards); a film resolves to an [`Image`] and to its passes ([`aov`]); [`checkpoint`]
+//! stores one in a file.
 
+pub mod aov;
 pub mod checkpoint;
 pub mod merge;
+pub mod output;
 
 use std::ops::Range;
 
-use glam::DVec3;
+use glam::{DVec3, Vec3};
 
 use crate::image::Image;
 
-/// Per-pixel sample sums and counts over the sample indices `samples`.
+/// What one camera sample adds to its pixel: the radiance estimate and the render
+/// passes' values (see [`crate::integrator::PathTracer::sample`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Sample {
+    pub radiance: Vec3,
+    /// Albedo at the first vertex whose BSDF is not a delta (seen through mirrors and
+    /// glass), or the sky's radiance clamped to `[0, 1]` where the path escapes first.
+    pub albedo: Vec3,
+    /// Shading normal there, turned towards the incoming ray; zero where none is hit.
+    pub normal: Vec3,
+    /// Distance along the camera ray to its first hit; zero for a miss.
+    pub depth: f32,
+}
+
+/// The sums a film holds for one pixel.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PixelSums {
+    /// Sum of the finite radiance estimates.
+    pub radiance: DVec3,
+    /// Sum of their squares, per channel: with `radiance` and `kept`, the variance.
+    pub radiance_sq: DVec3,
+    /// Sums of the passes over the same (finite) samples, in `f32`: they guide a
+    /// denoiser and are shown, so `f32` rounding is far below what matters.
+    pub albedo: Vec3,
+    pub normal: Vec3,
+    pub depth: f32,
+    /// Samples whose estimate was finite (the divisor of every mean).
+    pub kept: u32,
+    /// Samples taken.
+    pub done: u32,
+    /// Adaptive sampling stopped this pixel before the film's range was done.
+    pub converged: bool,
+}
+
+impl PixelSums {
+    /// Adds one sample; a non-finite radiance estimate is counted as taken but left
+    /// out of every sum. Returns whether it was kept.
+    #[inline]
+    pub fn add(&mut self, s: &Sample) -> bool {
+        self.done += 1;
+        if !s.radiance.is_finite() {
+            return false;
+        }
+        let l = s.radiance.as_dvec3();
+        self.radiance += l;
+        self.radiance_sq += l * l;
+        self.albedo += s.albedo;
+        self.normal += s.normal;
+        self.depth += s.depth;
+        self.kept += 1;
+        true
+    }
+
+    /// Adds the sums of the same pixel over a later sample range (another shard).
+    pub fn merge(&mut self, other: &PixelSums) {
+        self.radiance += other.radiance;
+        self.radiance_sq += other.radiance_sq;
+        self.albedo += other.albedo;
+        self.normal += other.normal;
+        self.depth += other.depth;
+        self.kept += other.kept;
+        self.done += other.done;
+        // A merged pixel stopped early where any part of it did: it has fewer samples
+        // than the whole range for that reason, not by a missing part.
+        self.converged |= other.converged;
+    }
+
+    /// The mean radiance of the kept samples (black without any).
+    pub fn mean(&self) -> DVec3 {
+        match self.kept {
+            0 => DVec3::ZERO,
+            n => self.radiance / f64::from(n),
+        }
+    }
+
+    /// The estimated variance of [`mean`](Self::mean) per channel: the samples'
+    /// unbiased variance over their count. Infinite with fewer than two samples,
+    /// since nothing is known of it then.
+    pub fn variance_of_mean(&self) -> DVec3 {
+        if self.kept < 2 {
+            return DVec3::INFINITY;
+        }
+        let n = f64::from(self.kept);
+        let mean = self.radiance / n;
+        // Rounding can make E[x²] − E[x]² a hair negative for constant samples.
+        let sample_var = ((self.radiance_sq - self.radiance * mean) / (n - 1.0)).max(DVec3::ZERO);
+        sample_var / n
+    }
+
+    /// The pixel's estimated relative error as `ember compare` weighs it: the square
+    /// root of the expected `(mean − truth)² / (truth² + 0.01)`, averaged over the
+    /// channels, with the mean standing in for the truth.
+    pub fn relative_error(&self) -> f64 {
+        let mean = self.mean();
+        let rel = self.variance_of_mean() / (mean * mean + DVec3::splat(0.01));
+        (rel.element_sum() / 3.0).sqrt()
+    }
+}
+
+/// Per-pixel sample sums over the sample indices `samples`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Film {
     pub width: u32,
     pub height: u32,
     /// The sample indices this film accumulates; pixel `i` holds samples
-    /// `samples.start .. samples.start + done[i]`.
+    /// `samples.start .. samples.start + pixels[i].done`.
     pub samples: Range<u32>,
-    pub sums: Vec<DVec3>,
-    pub kept: Vec<u32>,
-    pub done: Vec<u32>,
+    pub pixels: Vec<PixelSums>,
 }
 
 /// A rectangle of a [`Film`] (x0, y0, width, height), copied out so that one worker at
@@ -35,9 +136,7 @@ pub struct Film {
 #[derive(Clone, Debug)]
 pub struct FilmTile {
     pub rect: (u32, u32, u32, u32),
-    pub sums: Vec<DVec3>,
-    pub kept: Vec<u32>,
-    pub done: Vec<u32>,
+    pub pixels: Vec<PixelSums>,
 }
 
 impl Film {
@@ -48,48 +147,39 @@ impl Film {
             width,
             height,
             samples,
-            sums: vec![DVec3::ZERO; n],
-            kept: vec![0; n],
-            done: vec![0; n],
+            pixels: vec![PixelSums::default(); n],
         }
     }
 
     /// Fewest samples any pixel has.
     pub fn min_done(&self) -> u32 {
-        self.done.iter().copied().min().unwrap_or(0)
+        self.pixels.iter().map(|p| p.done).min().unwrap_or(0)
     }
 
     /// Samples taken over the whole image.
     pub fn total_done(&self) -> u64 {
-        self.done.iter().map(|&d| u64::from(d)).sum()
+        self.pixels.iter().map(|p| u64::from(p.done)).sum()
     }
 
-    /// Whether every pixel has every sample of the film's range.
+    /// How many pixels adaptive sampling has stopped.
+    pub fn converged_count(&self) -> usize {
+        self.pixels.iter().filter(|p| p.converged).count()
+    }
+
+    /// Whether every pixel has every sample of the film's range, or was stopped by
+    /// adaptive sampling.
     pub fn is_complete(&self) -> bool {
-        self.min_done() >= self.samples.len() as u32
+        let len = self.samples.len() as u32;
+        self.pixels.iter().all(|p| p.converged || p.done >= len)
     }
 
     /// The image so far: each pixel the mean of its finite samples (black without any).
     pub fn resolve(&self) -> Image {
         let mut image = Image::new(self.width, self.height);
-        for (p, (sum, &kept)) in image
-            .pixels
-            .iter_mut()
-            .zip(self.sums.iter().zip(&self.kept))
-        {
-            if kept > 0 {
-                *p = (*sum / f64::from(kept)).as_vec3();
-            }
+        for (out, p) in image.pixels.iter_mut().zip(&self.pixels) {
+            *out = p.mean().as_vec3();
         }
         image
-    }
-
-    /// Adds the samples of pixel `i` of another film: its sum, finite and taken counts.
-    #[inline]
-    pub fn add_pixel(&mut self, i: usize, sum: DVec3, kept: u32, done: u32) {
-        self.sums[i] += sum;
-        self.kept[i] += kept;
-        self.done[i] += done;
     }
 
     /// Adds the film of the sample range that follows this one (a later shard), so that
@@ -101,8 +191,8 @@ impl Film {
             (other.width, other.height, other.samples.start),
             "films of one image and adjacent sample ranges"
         );
-        for i in 0..self.sums.len() {
-            self.add_pixel(i, other.sums[i], other.kept[i], other.done[i]);
+        for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
+            a.merge(b);
         }
         self.samples.end = other.samples.end;
     }
@@ -112,19 +202,12 @@ impl Film {
     pub fn tiles(&self, tile_size: u32) -> Vec<FilmTile> {
         tile_rects(self.width, self.height, tile_size)
             .into_iter()
-            .map(|rect| {
-                let mut tile = FilmTile {
-                    rect,
-                    sums: Vec::new(),
-                    kept: Vec::new(),
-                    done: Vec::new(),
-                };
-                for row in self.rows(rect) {
-                    tile.sums.extend_from_slice(&self.sums[row.clone()]);
-                    tile.kept.extend_from_slice(&self.kept[row.clone()]);
-                    tile.done.extend_from_slice(&self.done[row]);
-                }
-                tile
+            .map(|rect| FilmTile {
+                rect,
+                pixels: self
+                    .rows(rect)
+                    .flat_map(|row| self.pixels[row].iter().copied())
+                    .collect(),
             })
             .collect()
     }
@@ -133,10 +216,7 @@ impl Film {
     pub fn write_tile(&mut self, tile: &FilmTile) {
         let w = tile.rect.2 as usize;
         for (r, row) in self.rows(tile.rect).enumerate() {
-            let src = r * w..(r + 1) * w;
-            self.sums[row.clone()].copy_from_slice(&tile.sums[src.clone()]);
-            self.kept[row.clone()].copy_from_slice(&tile.kept[src.clone()]);
-            self.done[row].copy_from_slice(&tile.done[src]);
+            self.pixels[row].copy_from_slice(&tile.pixels[r * w..(r + 1) * w]);
         }
     }
 
@@ -193,13 +273,10 @@ mod tests {
     #[test]
     fn tiles_written_back_rebuild_the_film() {
         let mut film = Film::new(37, 21, 0..4);
-        for (i, s) in film.sums.iter_mut().enumerate() {
-            *s = DVec3::splat(i as f64);
+        for (i, p) in film.pixels.iter_mut().enumerate() {
+            p.radiance = DVec3::splat(i as f64);
+            p.done = i as u32 % 5;
         }
-        film.done
-            .iter_mut()
-            .enumerate()
-            .for_each(|(i, d)| *d = i as u32 % 5);
         let tiles = film.tiles(16);
         assert_eq!(tiles.len(), 3 * 2);
         let mut rebuilt = Film::new(37, 21, 0..4);

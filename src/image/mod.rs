@@ -3,9 +3,13 @@
 //! references) is decoded to linear RGB. Files appear whole or not at all ([`crate::io`]).
 
 mod compare;
+mod decode;
+pub mod layers;
 mod tonemap;
 
 pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+pub use decode::{decode_file, decode_jpeg};
+pub use layers::{Layer, LayerError, LayeredImage};
 pub use tonemap::{ToneCurve, Tonemap};
 
 use std::path::{Path, PathBuf};
@@ -144,18 +148,13 @@ impl Image {
         Ok(io::write_atomically(path, &bytes)?)
     }
 
-    /// Reads a PNG (taken as sRGB), EXR or HDR (linear) image into linear RGB.
+    /// Reads an image (8- and 16-bit formats taken as sRGB, EXR and HDR as linear) into
+    /// linear RGB, strictly ([`decode_file`]).
     pub fn load(path: &Path) -> Result<Image, ImageFileError> {
-        let fail = |reason: String| ImageFileError::Read {
+        let image = decode_file(path).map_err(|reason| ImageFileError::Read {
             path: path.to_owned(),
             reason,
-        };
-        let image = ::image::ImageReader::open(path)
-            .map_err(|e| fail(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| fail(e.to_string()))?
-            .decode()
-            .map_err(|e| fail(e.to_string()))?;
+        })?;
         Ok(Image::from_image(image))
     }
 

@@ -31,6 +31,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
+use crate::film::Sample;
 use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -125,6 +126,17 @@ fn receiver(surface: &SurfacePoint) -> Receiver {
     }
 }
 
+/// Sets the passes of a sample from the vertex where they are taken.
+#[inline]
+fn record_passes(out: &mut Sample, bsdf: &Bsdf, surface: &SurfacePoint, wo: Vec3) {
+    out.albedo = bsdf.albedo();
+    out.normal = if surface.ns.dot(wo) < 0.0 {
+        -surface.ns
+    } else {
+        surface.ns
+    };
+}
+
 /// Veach's power heuristic (β = 2) for a sample of density `a` against density `b`.
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
@@ -168,7 +180,17 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 
     /// Radiance arriving along `ray` (towards its origin); `ray.dir` must be unit.
     /// `rng` is told where each vertex's draws start (see [`Rng::start_vertex`]).
-    pub fn radiance(&self, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Vec3 {
+    pub fn radiance(&self, ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Vec3 {
+        self.sample(ray, rng, count).radiance
+    }
+
+    /// The radiance arriving along a camera ray (see [`radiance`](Self::radiance)) and
+    /// the render passes of its path: albedo and shading normal at the first vertex
+    /// whose BSDF is not a delta (mirrors and glass are seen through, as Open Image
+    /// Denoise asks), and the distance to the first hit.
+    pub fn sample(&self, mut ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
+        let mut out = Sample::default();
+        let mut passes_found = false;
         let mut radiance = Vec3::ZERO;
         let mut throughput = Vec3::ONE;
         // The product of η² over refractions so far: throughput without the 1/η²
@@ -176,19 +198,33 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut eta_scale = 1.0f32;
         let mut emission_weight = EmissionWeight::Full;
         let mut hit = self.trace(&ray, count);
+        out.depth = hit.map_or(0.0, |h| h.t);
         for segment in 1..=self.max_depth {
             let Some(current) = hit else {
                 radiance += throughput * self.sky(ray.dir, emission_weight);
+                if !passes_found {
+                    out.albedo = self
+                        .scene
+                        .sky_radiance(ray.dir)
+                        .clamp(Vec3::ZERO, Vec3::ONE);
+                }
                 break;
             };
             rng.start_vertex(segment);
             let surface = self.scene.surface(&current);
             radiance += throughput * self.emission(&surface, &current, ray.dir, emission_weight);
+            let wo = -ray.dir;
             if segment == self.max_depth {
+                if !passes_found {
+                    record_passes(&mut out, &self.scene.bsdf(&surface, wo), &surface, wo);
+                }
                 break;
             }
-            let wo = -ray.dir;
             let bsdf = self.scene.bsdf(&surface, wo);
+            if !passes_found && !bsdf.is_delta() {
+                record_passes(&mut out, &bsdf, &surface, wo);
+                passes_found = true;
+            }
             let last_vertex = segment + 1 == self.max_depth;
             let next_event = !bsdf.is_delta()
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
@@ -238,7 +274,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 None => self.trace(&ray, count),
             };
         }
-        radiance
+        out.radiance = radiance;
+        out
     }
 
     /// Emission of the surface at `hit` towards a ray travelling along `dir`, weighted

@@ -401,7 +401,7 @@ fn split(lights: &[LightBounds], items: &mut [u32], depth: u32) -> usize {
                     continue;
                 };
                 let cost = k_r * (below.cost() + above.cost());
-                if best.map_or(true, |(c, _, _)| cost < c) {
+                if best.is_none_or(|(c, _, _)| cost < c) {
                     best = Some((cost, axis, cut));
                 }
             }

@@ -54,6 +54,15 @@ pub enum LightSamplerKind {
     Bvh,
 }
 
+impl LightSamplerKind {
+    /// Every choice, the default first.
+    pub const ALL: [LightSamplerKind; 3] = [
+        LightSamplerKind::Alias,
+        LightSamplerKind::SolidAngle,
+        LightSamplerKind::Bvh,
+    ];
+}
+
 /// The scene's emitters with a distribution over them.
 #[derive(Clone, Debug, Default)]
 pub struct LightSampler {

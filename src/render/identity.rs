@@ -44,6 +44,13 @@ pub fn identity(
             "integrator",
             format!("{:?}", settings.integrator).to_lowercase(),
         ),
+        // Adaptive sampling decides which samples are taken.
+        (
+            "adaptive",
+            settings.adaptive.map_or("none".to_string(), |a| {
+                format!("threshold {:?}, min-spp {}", a.threshold, a.min_spp)
+            }),
+        ),
         // The field of view before the eye: the default eye is derived from it.
         ("fov", format!("{:?}", camera.vfov_degrees)),
         ("eye", v(camera.eye)),

@@ -4,20 +4,23 @@
 //! Rendering is progressive: passes over all tiles add samples to the film, so a render
 //! can be stopped (Ctrl-C), snapshotted (checkpoints), resumed, or split by sample
 //! ranges into shards, and the result equals an uninterrupted render (see
-//! [`crate::film`]).
+//! [`crate::film`]). Between passes, adaptive sampling ([`adaptive`]) may stop pixels
+//! that have converged; a deadline ends the render wherever it is.
 
+pub mod adaptive;
 mod identity;
 
+pub use adaptive::Adaptive;
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
-use std::sync::{Condvar, Mutex};
+use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use crate::accel::Accel;
-use crate::film::{Film, FilmTile};
+use crate::film::{Film, FilmTile, PixelSums, Sample};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
 use crate::light::LightSamplerKind;
@@ -37,6 +40,8 @@ pub struct RenderSettings {
     pub integrator: IntegratorKind,
     /// How light samples choose an emitter.
     pub light_sampler: LightSamplerKind,
+    /// Adaptive sampling; `None` renders every pixel to `spp`.
+    pub adaptive: Option<Adaptive>,
 }
 
 /// What a render cost.
@@ -64,9 +69,13 @@ impl RenderStats {
 }
 
 /// Bytes of memory a render of `width × height` pixels holds: the film (sums, counts),
-/// its tile copies, the image and the encoded output.
+/// its tile copies, adaptive sampling's error map, the image, its passes and the
+/// encoded output.
 pub fn render_memory_bytes(width: u32, height: u32) -> u64 {
-    const PER_PIXEL: u64 = 2 * (24 + 4 + 4) + 12 + 12;
+    const FILM_PIXEL: u64 = std::mem::size_of::<crate::film::PixelSums>() as u64;
+    // The film and its tiles; adaptive sampling's error map, window maxima and calm
+    // flags; the image; up to 13 pass channels of f32 and their EXR encoding.
+    const PER_PIXEL: u64 = 2 * FILM_PIXEL + 8 + 8 + 1 + 12 + 2 * 13 * 4;
     u64::from(width) * u64::from(height) * PER_PIXEL
 }
 
@@ -82,6 +91,57 @@ pub struct RenderControl<'a> {
     pub first_pass_spp: u32,
     /// Periodic snapshots of the film, if wanted.
     pub checkpoint: Option<Checkpointing<'a>>,
+    /// The render stops when this time comes (`--time-limit`), like a stop request;
+    /// passes are then sized to end near it, so that pixels differ little in samples.
+    pub deadline: Option<Instant>,
+    /// Called after each whole pass with the film's state (progress bars).
+    pub on_pass: &'a (dyn Fn(&PassReport) + Sync),
+}
+
+/// The film's state after a pass: samples per pixel and how many pixels converged.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct PassReport {
+    pub min_spp: u32,
+    pub mean_spp: f64,
+    pub max_spp: u32,
+    pub converged: usize,
+    pub pixels: usize,
+    /// Samples the pixels still going would take to the end of the film's range.
+    pub remaining: u64,
+}
+
+impl PassReport {
+    pub fn of(film: &Film) -> PassReport {
+        PassReport::of_pixels(film.pixels.iter(), film.samples.len() as u32)
+    }
+
+    /// The report of `pixels`, of a film whose range holds `len` samples.
+    fn of_pixels<'p>(pixels: impl Iterator<Item = &'p PixelSums>, len: u32) -> PassReport {
+        let mut report = PassReport {
+            min_spp: u32::MAX,
+            ..PassReport::default()
+        };
+        let mut total = 0u64;
+        for p in pixels {
+            report.min_spp = report.min_spp.min(p.done);
+            report.max_spp = report.max_spp.max(p.done);
+            total += u64::from(p.done);
+            report.pixels += 1;
+            if p.converged {
+                report.converged += 1;
+            } else {
+                report.remaining += u64::from(len.saturating_sub(p.done));
+            }
+        }
+        report.min_spp = report.min_spp.min(report.max_spp);
+        report.mean_spp = total as f64 / report.pixels.max(1) as f64;
+        report
+    }
+
+    /// Fraction of the pixels adaptive sampling has stopped.
+    pub fn converged_fraction(&self) -> f64 {
+        self.converged as f64 / self.pixels.max(1) as f64
+    }
 }
 
 /// `write` is called with a consistent snapshot of the film every `every`, from a
@@ -107,6 +167,8 @@ pub fn render<A: Accel>(
         on_samples: &|samples| on_tile_done(samples / spp),
         first_pass_spp: u32::MAX,
         checkpoint: None,
+        deadline: None,
+        on_pass: &|_| {},
     };
     let film = Film::new(settings.width, settings.height, 0..settings.spp);
     let (film, stats) = render_progressive(scene, accel, camera, settings, film, &control);
@@ -114,8 +176,9 @@ pub fn render<A: Accel>(
 }
 
 /// Takes every pixel of `film` to all the samples of its range (`film.samples`, within
-/// `0..settings.spp`), in passes over all tiles on the current rayon pool, until done
-/// or `control.stop` is set. Pixels that already have them are left alone.
+/// `0..settings.spp`), in passes over all tiles on the current rayon pool, until done,
+/// converged (adaptive sampling), `control.stop` is set or the deadline passes. Pixels
+/// that already have them are left alone.
 pub fn render_progressive<A: Accel>(
     scene: &Scene,
     accel: &A,
@@ -170,7 +233,7 @@ pub fn render_progressive<A: Accel>(
             }
         }
         let _finish = Finish(&finished);
-        passes.run(film.min_done(), film.samples.len() as u32);
+        passes.run(film.samples.len() as u32);
     });
     let (rays, dropped) = (passes.rays.into_inner(), passes.dropped.into_inner());
     let film = gather(film, &tiles);
@@ -227,24 +290,140 @@ struct Passes<'a, A: Accel> {
 }
 
 impl<A: Accel> Passes<'_, A> {
-    /// Passes from `done` to `count` samples per pixel: the first of
-    /// `first_pass_spp`, each later one doubling the count.
-    fn run(&self, mut done: u32, count: u32) {
-        while done < count && self.control.stop.load(Ordering::Relaxed) == 0 {
-            done = if done == 0 {
-                self.control.first_pass_spp.clamp(1, count)
-            } else {
-                done.saturating_mul(2).min(count)
+    /// Passes until every pixel has `count` samples or has converged. A pass takes the
+    /// pixels still going to the next sample count of a fixed schedule (the first pass
+    /// `first_pass_spp`, each later one doubling it), so the passes of a resumed render
+    /// end where the uninterrupted render's did: adaptive decisions, taken after each
+    /// whole pass, are then the same.
+    fn run(&self, count: u32) {
+        let mut last_pass: Option<(u32, Duration)> = None;
+        loop {
+            let report = self.at_pass_end(count);
+            if last_pass.is_some() {
+                (self.control.on_pass)(&report);
+            }
+            if self.stopped() {
+                break;
+            }
+            let Some(level) = self.fewest_samples_going() else {
+                break;
             };
+            if level >= count {
+                break;
+            }
+            let mut target = next_pass_target(level, self.control.first_pass_spp, count);
+            if let (Some(deadline), Some(last)) = (self.control.deadline, last_pass) {
+                target = target.min(fit_to_deadline(level, deadline, last));
+            }
+            let started = Instant::now();
             self.tiles.par_iter().for_each(|tile| {
                 let mut tile = tile.lock().unwrap_or_else(|p| p.into_inner());
-                let (r, d, taken) = self.render_tile(&mut tile, done);
+                let (r, d, taken) = self.render_tile(&mut tile, target);
                 self.rays.fetch_add(r, Ordering::Relaxed);
                 self.dropped.fetch_add(d, Ordering::Relaxed);
                 (self.control.on_samples)(taken);
             });
+            last_pass = Some((target - level, started.elapsed()));
         }
     }
+
+    /// Whether a stop was asked for or the deadline has passed.
+    #[inline]
+    fn stopped(&self) -> bool {
+        self.control.stop.load(Ordering::Relaxed) != 0
+            || self.control.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    /// The fewest samples of any pixel that has not converged (`None`: all have).
+    fn fewest_samples_going(&self) -> Option<u32> {
+        self.tiles
+            .iter()
+            .filter_map(|tile| {
+                let tile = tile.lock().unwrap_or_else(|p| p.into_inner());
+                tile.pixels
+                    .iter()
+                    .filter(|p| !p.converged)
+                    .map(|p| p.done)
+                    .min()
+            })
+            .min()
+    }
+
+    /// The film's state, after adaptive sampling's decisions where a pass has ended:
+    /// where every pixel still going has the same sample count. That is the state
+    /// after each whole pass, and also that of a render stopped there or resumed from
+    /// there; deciding again on it decides the same (a stopped pixel's error is below
+    /// the threshold already), so a resumed render takes the decisions of an
+    /// uninterrupted one. A render stopped inside a pass decides nothing until it
+    /// ends that pass.
+    fn at_pass_end(&self, count: u32) -> PassReport {
+        let mut tiles: Vec<_> = self
+            .tiles
+            .iter()
+            .map(|t| t.lock().unwrap_or_else(|p| p.into_inner()))
+            .collect();
+        let going = |tiles: &[MutexGuard<FilmTile>]| {
+            let mut counts = tiles
+                .iter()
+                .flat_map(|t| t.pixels.iter())
+                .filter(|p| !p.converged)
+                .map(|p| p.done);
+            let first = counts.next();
+            counts.all(|d| Some(d) == first)
+        };
+        if let (Some(adaptive), true) = (&self.settings.adaptive, going(&tiles)) {
+            self.decide(&mut tiles, adaptive);
+        }
+        PassReport::of_pixels(tiles.iter().flat_map(|t| t.pixels.iter()), count)
+    }
+
+    /// Stops the pixels adaptive sampling lets stop: the image's error map, its calm
+    /// neighbourhoods, and each pixel's own count.
+    fn decide(&self, tiles: &mut [MutexGuard<FilmTile>], adaptive: &Adaptive) {
+        let (w, h) = (self.settings.width, self.settings.height);
+        let at = |(x0, y0, tw, _): (u32, u32, u32, u32), i: usize| {
+            let i = i as u32;
+            ((y0 + i / tw) * w + x0 + i % tw) as usize
+        };
+        let mut error = vec![0.0f64; w as usize * h as usize];
+        for tile in tiles.iter() {
+            for (i, p) in tile.pixels.iter().enumerate() {
+                if !p.converged {
+                    error[at(tile.rect, i)] = p.relative_error();
+                }
+            }
+        }
+        let calm = adaptive::calm(&error, w, h, adaptive.threshold);
+        for tile in tiles.iter_mut() {
+            let rect = tile.rect;
+            for (i, p) in tile.pixels.iter_mut().enumerate() {
+                p.converged = adaptive.may_stop(p, calm[at(rect, i)]);
+            }
+        }
+    }
+}
+
+/// The sample count the pass after `level` takes pixels to: the first value of the
+/// schedule `first, 2·first, 4·first, …` above `level`, at most `count`.
+fn next_pass_target(level: u32, first: u32, count: u32) -> u32 {
+    let mut target = first.clamp(1, count);
+    while target <= level && target < count {
+        target = target.saturating_mul(2).min(count);
+    }
+    target
+}
+
+/// The largest sample count a pass from `level` can reach by `deadline`, at the pace
+/// of the last pass (`samples` more per pixel in `took`); at least one more sample.
+fn fit_to_deadline(level: u32, deadline: Instant, (samples, took): (u32, Duration)) -> u32 {
+    let left = deadline
+        .saturating_duration_since(Instant::now())
+        .as_secs_f64();
+    let per_sample = took.as_secs_f64() / f64::from(samples.max(1));
+    let more = (left / per_sample.max(1e-9))
+        .floor()
+        .clamp(1.0, f64::from(u32::MAX));
+    level.saturating_add(more as u32)
 }
 
 /// Camera sample `sample` of pixel `(x, y)` (index `pixel` in the image): the radiance
@@ -259,11 +438,11 @@ pub fn pixel_sample<A: Accel>(
     pixel: u64,
     sample: u32,
     count: &mut RayCount,
-) -> glam::Vec3 {
+) -> Sample {
     let mut rng = Rng::for_pixel_sample(seed, pixel, u64::from(sample));
     let (dx, dy) = rng.pair();
     let ray = camera.ray(x as f32 + dx, y as f32 + dy);
-    tracer.radiance(ray, &mut rng, count)
+    tracer.sample(ray, &mut rng, count)
 }
 
 impl<A: Accel> Passes<'_, A> {
@@ -271,40 +450,34 @@ impl<A: Accel> Passes<'_, A> {
     /// early when asked). Returns rays traced, samples dropped as NaN/infinite, and
     /// samples taken.
     fn render_tile(&self, tile: &mut FilmTile, target: u32) -> (u64, u64, u64) {
-        let (x0, y0, w, h) = tile.rect;
+        let (x0, y0, w, _) = tile.rect;
         let mut count = RayCount::default();
         let mut dropped = 0;
         let mut taken = 0;
-        for i in 0..(w * h) as usize {
+        for (i, p) in tile.pixels.iter_mut().enumerate() {
+            if p.converged {
+                continue;
+            }
             let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
             let pixel = u64::from(y) * u64::from(self.settings.width) + u64::from(x);
-            let mut sum = tile.sums[i];
-            let (mut kept, mut done) = (tile.kept[i], tile.done[i]);
-            while done < target {
-                if self.control.stop.load(Ordering::Relaxed) != 0 {
+            while p.done < target {
+                if self.stopped() {
                     break;
                 }
-                let l = pixel_sample(
+                let sample = pixel_sample(
                     self.tracer,
                     self.camera,
                     self.settings.seed,
                     (x, y),
                     pixel,
-                    self.first_sample + done,
+                    self.first_sample + p.done,
                     &mut count,
                 );
-                if l.is_finite() {
-                    sum += l.as_dvec3();
-                    kept += 1;
-                } else {
+                if !p.add(&sample) {
                     dropped += 1;
                 }
-                done += 1;
                 taken += 1;
             }
-            tile.sums[i] = sum;
-            tile.kept[i] = kept;
-            tile.done[i] = done;
         }
         (count.rays, dropped, taken)
     }

@@ -311,7 +311,7 @@ fn load_obj_text(
         search_dirs.extend(mtl_dirs);
     }
     let mut loader = TextureLoader::new(search_dirs);
-    let mut materials = build_materials(path, &tobj_materials, &mut loader, &mut report)?;
+    let mut materials = build_materials(&tobj_materials, &mut loader, &mut report)?;
     materials.push(Material::default());
     if names_materials && tobj_materials.is_empty() {
         report.warnings.push(
@@ -365,7 +365,15 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
             Ok(t) => t,
             Err(reason) => return fail(mtl_path, reason),
         };
-        tobj::load_mtl_buf(&mut text.as_bytes()).or_else(|e| fail(mtl_path, format!("{e}")))
+        let loaded = tobj::load_mtl_buf(&mut text.as_bytes());
+        match loaded
+            .as_ref()
+            .map(|(materials, _)| materials.iter().find_map(unusable_value))
+        {
+            Err(e) => fail(mtl_path, format!("{e}")),
+            Ok(Some(reason)) => fail(mtl_path, reason),
+            Ok(None) => loaded,
+        }
     };
     let options = tobj::LoadOptions {
         single_index: true,
@@ -406,9 +414,42 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
     })
 }
 
+/// The largest `Ni` ember accepts: past it the glass's `1/η²` comes near `f32`'s
+/// smallest normal numbers and refraction is no longer finite arithmetic (real
+/// dielectrics stay below 5; the MTL specification allows up to 10).
+pub const MAX_IOR: f32 = 1000.0;
+
+/// Why a material's numbers would make its samples non-finite, if they would:
+/// `Kd`, `Ks`, `Ke`, `Ns` and `Ni` must be finite (and `Ni` at most [`MAX_IOR`]).
+/// (`d`, `Tr`, `Pr` and `Pm` are checked to lie in [0, 1] where they are read.)
+fn unusable_value(m: &tobj::Material) -> Option<String> {
+    let colours = [("Kd", m.diffuse), ("Ks", m.specular), ("Ke", m.emissive)];
+    let bad = |key: &str, value: String| {
+        Some(format!(
+            "material {:?}: {key} {value} is not finite",
+            m.name
+        ))
+    };
+    for (key, colour) in colours {
+        if let Some(c) = colour.filter(|c| !c.iter().all(|x| x.is_finite())) {
+            return bad(key, format!("{} {} {}", c[0], c[1], c[2]));
+        }
+    }
+    for (key, value) in [("Ns", m.shininess), ("Ni", m.optical_density)] {
+        if let Some(v) = value.filter(|v| !v.is_finite()) {
+            return bad(key, v.to_string());
+        }
+    }
+    m.optical_density.filter(|&ni| ni > MAX_IOR).map(|ni| {
+        format!(
+            "material {:?}: Ni {ni} is past {MAX_IOR}, where glass is no longer finite arithmetic",
+            m.name
+        )
+    })
+}
+
 /// ember's materials from tobj's, with their textures and opacity maps decoded.
 fn build_materials(
-    path: &Path,
     tobj_materials: &[tobj::Material],
     loader: &mut TextureLoader,
     report: &mut LoadReport,
@@ -434,16 +475,6 @@ fn build_materials(
             pm: unit_parameter(m, "Pm")?,
             maps: material_maps(m, loader)?,
         };
-        let finite = [values.kd, values.ks, values.ke]
-            .into_iter()
-            .flatten()
-            .all(|c| c.is_finite());
-        if !finite {
-            return Err(SceneError::Obj {
-                path: path.to_owned(),
-                reason: format!("material {:?} has a non-finite colour", m.name),
-            });
-        }
         let mut material = Material::from_mtl(&m.name, &values, texture);
         material.opacity = match opacity_constant(m)? {
             Some(0.0) => {

@@ -233,12 +233,7 @@ fn split_word(text: &str) -> (&str, &str) {
 /// Decodes an image file, refusing one whose copies (`bytes_per_texel` of them beside
 /// the decoded image) would not fit in memory.
 fn decode(path: &Path, bytes_per_texel: u64) -> Result<DynamicImage, String> {
-    let image = image::ImageReader::open(path)
-        .map_err(|e| e.to_string())?
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
-        .decode()
-        .map_err(|e| e.to_string())?;
+    let image = crate::image::decode_file(path)?;
     // The decoder caps its own allocation (the image crate's default limit, 512 MiB);
     // the copies made from it take up to `bytes_per_texel` per texel on top.
     let texels = u64::from(image.width()) * u64::from(image.height());
@@ -249,7 +244,26 @@ fn decode(path: &Path, bytes_per_texel: u64) -> Result<DynamicImage, String> {
     if texels == 0 {
         return Err("image is empty".into());
     }
+    if let Some((x, y, value)) = non_finite_texel(&image) {
+        return Err(format!(
+            "texel ({x}, {y}) holds {value}: every value must be finite"
+        ));
+    }
     Ok(image)
+}
+
+/// The first texel (x, y) of a floating-point image with a NaN or infinite channel, and
+/// that value: it would make every sample that reads it non-finite. (8- and 16-bit
+/// images hold only finite values.)
+fn non_finite_texel(image: &DynamicImage) -> Option<(u32, u32, f32)> {
+    let (values, channels): (&[f32], usize) = match image {
+        DynamicImage::ImageRgb32F(b) => (b.as_raw(), 3),
+        DynamicImage::ImageRgba32F(b) => (b.as_raw(), 4),
+        _ => return None,
+    };
+    let i = values.iter().position(|v| !v.is_finite())?;
+    let texel = (i / channels) as u32;
+    Some((texel % image.width(), texel / image.width(), values[i]))
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! Scenes built in code for the sampling and integrator tests.
 #![allow(dead_code)]
 
+pub mod fuzz;
 pub mod stats;
 
 use ember::accel::EmbreeAccel;
@@ -113,4 +114,40 @@ pub fn inward_cube(cells: u32, material: u32) -> Vec<([Vec3; 3], u32)> {
         }
     }
     tris
+}
+
+/// Renders `film` on with `render_progressive` on the current rayon pool, stopping once
+/// `stop_after` more samples were taken (the stop flag is checked before each sample, so
+/// this lands inside tiles and pixels). Checks the reported sample count.
+#[allow(clippy::too_many_arguments)]
+pub fn render_stopping<A: ember::accel::Accel>(
+    scene: &Scene,
+    accel: &A,
+    camera: &ember::scene::Camera,
+    settings: &ember::render::RenderSettings,
+    film: ember::film::Film,
+    first_pass_spp: u32,
+    stop_after: Option<u64>,
+) -> ember::film::Film {
+    use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+    let stop = AtomicUsize::new(0);
+    let taken = AtomicU64::new(0);
+    let on_samples = |n: u64| {
+        let total = taken.fetch_add(n, Ordering::Relaxed) + n;
+        if stop_after.is_some_and(|limit| total >= limit) {
+            stop.store(2, Ordering::Relaxed);
+        }
+    };
+    let control = ember::render::RenderControl {
+        stop: &stop,
+        on_samples: &on_samples,
+        first_pass_spp,
+        checkpoint: None,
+        deadline: None,
+        on_pass: &|_| {},
+    };
+    let (film, stats) =
+        ember::render::render_progressive(scene, accel, camera, settings, film, &control);
+    assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
+    film
 }

@@ -228,7 +228,7 @@ fn best_split<const N: usize>(
                 + (box_l.half_area() * blocks(n_l as usize * stride) + right_cost[split])
                     * inv_area;
             // Strictly cheaper: on equal costs the first axis and lowest bin stay.
-            if best.map_or(true, |b| cost < b.cost) {
+            if best.is_none_or(|b| cost < b.cost) {
                 best = Some(ObjectSplit {
                     axis,
                     bins_left: split,
@@ -317,7 +317,7 @@ fn build_node(
     };
     // Up to two blocks stay a leaf where the SAH finds no split cheaper: there a
     // descent one level further costs a shadow ray more than a second block test.
-    if n <= MAX_LEAF && split.map_or(true, |s| s.cost >= blocks(n)) {
+    if n <= MAX_LEAF && split.is_none_or(|s| s.cost >= blocks(n)) {
         return leaf_of(refs, bounds);
     }
     // Spatial splits copy the references of the two sides; object splits reorder them

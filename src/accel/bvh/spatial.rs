@@ -199,7 +199,7 @@ fn best_plane(bins: &SpatialBins, bounds: Aabb) -> Option<(usize, f32)> {
         }
         let cost =
             TRAVERSAL_COST + (box_l.half_area() * blocks(n_l as usize) + right_cost[k]) * inv_area;
-        if best.map_or(true, |(_, c)| cost < c) {
+        if best.is_none_or(|(_, c)| cost < c) {
             best = Some((k, cost));
         }
     }

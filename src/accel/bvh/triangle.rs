@@ -255,7 +255,7 @@ impl RayShear {
         for lane in 0..4 {
             if l.hit[lane] {
                 let t = l.t_scaled[lane] / l.det[lane];
-                if best.map_or(true, |(_, bt)| t < bt) {
+                if best.is_none_or(|(_, bt)| t < bt) {
                     best = Some((lane, t));
                 }
             }
