@@ -202,6 +202,56 @@ fn sampler(built: &Built, kind: LightSamplerKind) -> LightSampler {
     )
 }
 
+/// The default sampler is area sampling, from every receiver whatever its solid angle:
+/// its points are uniform over the triangle (chi-square over 64 congruent
+/// sub-triangles) and its density is `d² / (cos α · A)` with `A = 2` here, the one
+/// emitter being chosen with probability 1.
+#[test]
+fn the_default_sampler_draws_uniform_points_on_the_area() {
+    const CELLS: usize = 8;
+    const DRAWS: usize = 64_000;
+    let built = one_emitter();
+    let lights = sampler(&built, LightSamplerKind::default());
+    assert_eq!(lights.kind(), Some(LightSamplerKind::Alias));
+    for (k, (name, at)) in receivers().into_iter().enumerate() {
+        assert!(!lights.samples_by_solid_angle(at, 0), "{name}");
+        let mut rng = Rng::seeded(90 + k as u64);
+        let mut observed = vec![0.0; 2 * CELLS * CELLS];
+        for _ in 0..DRAWS {
+            let sample = lights.sample(at, &mut rng).expect("the emitter faces it");
+            let q = sample.point.unwrap().p;
+            let cos = -sample.dir.dot(Vec3::NEG_Y);
+            let area_density = sample.distance * sample.distance / (cos * 2.0);
+            assert!(
+                (sample.pdf - area_density).abs() <= 1e-4 * area_density,
+                "{name}: pdf {} vs d²/(cos A) {area_density}",
+                sample.pdf
+            );
+            let (s, t) = parameters(TRIANGLE, q);
+            observed[sub_triangle(s, t, CELLS)] += 1.0;
+        }
+        // The n² sub-triangles inside the unit triangle: lower halves of the cells
+        // with i + j < n, upper halves of those with i + j < n − 1.
+        let inside = |i: usize, j: usize, upper: bool| i + j + usize::from(upper) < CELLS;
+        let mut kept = Vec::new();
+        for i in 0..CELLS {
+            for j in 0..CELLS {
+                for upper in [false, true] {
+                    let bin = observed[2 * (i * CELLS + j) + usize::from(upper)];
+                    if inside(i, j, upper) {
+                        kept.push(bin);
+                    } else {
+                        assert_eq!(bin, 0.0, "{name}: a point outside the triangle");
+                    }
+                }
+            }
+        }
+        assert_eq!(kept.len(), CELLS * CELLS);
+        let expected = vec![(DRAWS / (CELLS * CELLS)) as f64; CELLS * CELLS];
+        assert_chi_square(&format!("area sampling, {name}"), &kept, &expected);
+    }
+}
+
 /// The emitter's draws follow the density `pdf_hit` reports for them, whichever
 /// strategy the rule picks; and the receivers cover solid-angle sampling, area sampling
 /// of a huge triangle and area sampling of small or far ones.

@@ -89,6 +89,17 @@ pub struct EmitterSample {
     pub density: f32,
 }
 
+/// A point on an emitter as seen from a receiver.
+struct SeenFrom {
+    point: Vec3,
+    /// Unit direction from the receiver.
+    dir: Vec3,
+    distance_squared: f32,
+    distance: f32,
+    /// Cosine between the emitting normal and the direction back to the receiver (> 0).
+    cos_light: f32,
+}
+
 /// How directions towards one emitter are drawn from one receiver.
 enum Strategy {
     Area,
@@ -197,35 +208,22 @@ impl Emitter {
                 (b, Some((warp_density / triangle.solid_angle()) as f32))
             }
         };
-        let [v0, v1, v2] = self.vertices;
-        let point = b[0] * v0 + b[1] * v1 + b[2] * v2;
-        let to_light = point - at.p;
-        let distance = to_light.length();
-        if distance.is_nan() || distance <= 0.0 {
-            return None;
-        }
-        let dir = to_light / distance;
-        let cos_light = -dir.dot(self.normal);
-        if cos_light.is_nan() || cos_light <= 0.0 {
-            return None;
-        }
-        let density = density.unwrap_or(distance * distance / (cos_light * self.area));
+        let seen = self.seen_from(at.p, b)?;
+        let distance = seen.distance;
+        let density = density.unwrap_or(distance * distance / (seen.cos_light * self.area));
         (density.is_finite() && density > 0.0).then_some(EmitterSample {
             b,
-            point,
-            dir,
+            point: seen.point,
+            dir: seen.dir,
             distance,
             density,
         })
     }
 
-    /// A uniform point on the triangle's area from `u`, seen from `origin`, with
-    /// `area_density` turned into the whole sampler's solid-angle density: the
-    /// default strategy, with no solid-angle test on its path.
+    /// The point at barycentrics `b` as seen from `origin`; `None` where it is at
+    /// `origin` or faces away from it.
     #[inline]
-    pub fn sample_area(&self, origin: Vec3, u: [f32; 2]) -> Option<EmitterSample> {
-        let (b1, b2) = uniform_triangle(u[0], u[1]);
-        let b = [1.0 - b1 - b2, b1, b2];
+    fn seen_from(&self, origin: Vec3, b: [f32; 3]) -> Option<SeenFrom> {
         let [v0, v1, v2] = self.vertices;
         let point = b[0] * v0 + b[1] * v1 + b[2] * v2;
         let to_light = point - origin;
@@ -239,12 +237,29 @@ impl Emitter {
         if cos_light.is_nan() || cos_light <= 0.0 {
             return None;
         }
-        Some(EmitterSample {
-            b,
+        Some(SeenFrom {
             point,
             dir,
+            distance_squared,
             distance,
-            density: self.area_density * distance_squared / cos_light,
+            cos_light,
+        })
+    }
+
+    /// A uniform point on the triangle's area from `u`, seen from `origin`, with
+    /// `area_density` turned into the whole sampler's solid-angle density: the
+    /// default strategy, with no solid-angle test on its path.
+    #[inline]
+    pub fn sample_area(&self, origin: Vec3, u: [f32; 2]) -> Option<EmitterSample> {
+        let (b1, b2) = uniform_triangle(u[0], u[1]);
+        let b = [1.0 - b1 - b2, b1, b2];
+        let seen = self.seen_from(origin, b)?;
+        Some(EmitterSample {
+            b,
+            point: seen.point,
+            dir: seen.dir,
+            distance: seen.distance,
+            density: self.area_density * seen.distance_squared / seen.cos_light,
         })
     }
 

@@ -2,9 +2,10 @@
 //! sky ([`LightSampler`]), and the book's densities over directions built on it and on
 //! the BSDF ([`Pdf`]: [`BsdfPdf`], [`LightPdf`], [`MixturePdf`]).
 //!
-//! An emitter is chosen by a light BVH ([`bvh`]) or an alias table, then a direction
-//! towards it by solid angle ([`spherical_triangle`]) or by area, as [`emitter`]'s
-//! rule decides.
+//! An emitter is chosen by an alias table (by default, then a uniform point on its
+//! area) or by a light BVH ([`bvh`]); with `--light-sampler solid-angle` or `bvh`, a
+//! direction towards it by solid angle ([`spherical_triangle`]) or by area, as
+//! [`emitter`]'s rule decides.
 
 pub mod bvh;
 mod emitter;

@@ -2,13 +2,15 @@
 //! doing so: the light half of "Ray Tracing: The Rest of Your Life", made to scale.
 //!
 //! A light sample first chooses the sky or an emitter (the sky by its share of the
-//! estimated power, as before). An emitter is chosen by a [`LightBvh`] that weighs
-//! each one's power, distance and orientation as seen from the receiver
-//! ([`LightSamplerKind::Bvh`]), or in proportion to power alone from an alias table (the
-//! default, [`LightSamplerKind::Alias`]).
+//! estimated power). The default ([`LightSamplerKind::Alias`]) then chooses an emitter
+//! in proportion to power from an alias table and a uniform point on its area, with
+//! nothing on its path that depends on the receiver but the distance and cosine.
+//! The others choose by the same table ([`LightSamplerKind::SolidAngle`]) or by a
+//! [`LightBvh`] that weighs each emitter's power, distance and orientation as seen
+//! from the receiver ([`LightSamplerKind::Bvh`]), then a direction by solid angle or
+//! by area as [`Emitter`]'s rule decides.
 //! Power is area × luminance of `Ke`, times the mean of the `map_Ke` texture when
-//! there is one. Then a direction towards the chosen triangle, by solid angle or by
-//! area as [`Emitter`] decides. The density of a direction is
+//! there is one. The density of a direction is
 //! `(1 − P_sky) · P(emitter | receiver) · p(direction | emitter, receiver)`, and
 //! [`pdf_hit`](LightSampler::pdf_hit) computes exactly that for any direction, so MIS
 //! and the mixture weigh each sample by the density it was drawn with.
@@ -33,14 +35,16 @@ use crate::geometry::{barycentric_error, SurfaceOrigin};
 use crate::sampling::{AliasTable, Rng};
 use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
-/// How an emitter is chosen for a light sample.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// How an emitter and a point on it are chosen for a light sample.
 ///
-/// The alias table is the default because it was measured the more efficient on every
-/// full global-illumination render tried (issue 20): the BVH lowers the error at equal
-/// samples (1.8× on `meshes/many-light-room.obj`, 8.7× for its direct light alone) but
-/// costs about twice the time per sample there, and its choice between a handful of
-/// lights buys nothing (on the Cornell box it gives the alias table's probabilities).
+/// The alias table with area sampling is the default because it was measured the more
+/// efficient on every full global-illumination render tried (issue 20): the BVH lowers
+/// the error at equal samples (1.8× on `meshes/many-light-room.obj`, 8.7× for its
+/// direct light alone) but costs about twice the time per sample there, its choice
+/// between a handful of lights buys nothing (on the Cornell box it gives the alias
+/// table's probabilities), and the solid-angle rule alone cost 7–9% efficiency on the
+/// Cornell boxes for no gain in error.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSamplerKind {
     /// In proportion to power, wherever the receiver is (one alias table), then a
     /// uniform point on the triangle's area: the sampler of ALGORITHM_VERSION 10.
