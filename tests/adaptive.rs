@@ -37,6 +37,7 @@ fn settings(size: u32, spp: u32, adaptive: Option<Adaptive>) -> RenderSettings {
         max_depth: 8,
         seed: 5,
         integrator: IntegratorKind::Mis,
+        light_sampler: Default::default(),
         adaptive,
         guiding: None,
     }

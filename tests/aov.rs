@@ -64,6 +64,7 @@ fn film_of(built: &Built, samples: std::ops::Range<u32>, seed: u64, max_depth: u
         max_depth,
         seed,
         integrator: IntegratorKind::Mis,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

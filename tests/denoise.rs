@@ -195,6 +195,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
             max_depth: 8,
             seed,
             integrator: IntegratorKind::Mis,
+            light_sampler: Default::default(),
             adaptive: None,
             guiding: None,
         };

@@ -79,6 +79,7 @@ fn image<A: Accel>(
         max_depth: 5,
         seed: 11,
         integrator: kind,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

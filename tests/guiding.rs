@@ -196,6 +196,7 @@ fn guided_settings(size: u32, spp: u32, iterations: u32) -> RenderSettings {
         seed: 2,
         integrator: IntegratorKind::Mis,
         adaptive: None,
+        light_sampler: Default::default(),
         guiding: Some(Guiding { iterations }),
     }
 }

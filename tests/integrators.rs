@@ -384,6 +384,7 @@ fn guided_mis_converges_to_the_glossy_reference() {
         seed: 9,
         integrator: kind,
         adaptive: None,
+        light_sampler: Default::default(),
         guiding: Some(Guiding { iterations: 5 }),
     };
     let (tree, stats) = train_guide(

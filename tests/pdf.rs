@@ -10,7 +10,9 @@ use common::stats::{bin_integrals, check_density, monte_carlo, Binning, Density}
 use common::{build, diffuse, quad, Built};
 use ember::accel::{Accel, Ray};
 use ember::bsdf::Bsdf;
-use ember::light::{BsdfPdf, LightPdf, LightSampler, LightTarget, MixturePdf, Pdf};
+use ember::light::{
+    BsdfPdf, LightPdf, LightSampler, LightSamplerKind, LightTarget, MixturePdf, Pdf, Receiver,
+};
 use ember::sampling::{uniform_sphere, Rng};
 use glam::Vec3;
 
@@ -104,6 +106,31 @@ fn lights_of(built: &Built) -> LightSampler {
     )
 }
 
+fn lights_with(built: &Built, kind: LightSamplerKind) -> LightSampler {
+    LightSampler::with_kind(
+        &built.scene.mesh,
+        &built.scene.materials,
+        &built.scene.textures,
+        kind,
+    )
+}
+
+/// The receivers the light densities are checked from: the origin without a normal,
+/// and with normals that make the cosine warp matter.
+fn receivers() -> [Receiver; 3] {
+    [
+        Receiver::at(Vec3::ZERO),
+        Receiver {
+            p: Vec3::ZERO,
+            n: Vec3::new(0.2, 1.0, 0.1).normalize(),
+        },
+        Receiver {
+            p: Vec3::ZERO,
+            n: Vec3::new(1.0, 0.3, -0.4).normalize(),
+        },
+    ]
+}
+
 /// Checks a [`Pdf`] at the origin of `built`'s scene: its value for a direction is
 /// told that direction's first hit, traced here.
 fn check_pdf(name: &str, built: &Built, pdf: &impl Pdf, total: f64, seed: u64) {
@@ -146,83 +173,122 @@ fn cosine_density_is_normalised_and_matches_its_draws() {
 #[test]
 fn light_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    let lights = lights_of(&built);
-    assert_eq!(lights.len(), 3);
-    let pdf = LightPdf {
-        origin: Vec3::ZERO,
-        lights: &lights,
-    };
-    check_pdf("light", &built, &pdf, 1.0, 13);
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
+        assert_eq!(lights.len(), 3);
+        for (i, at) in receivers().into_iter().enumerate() {
+            let pdf = LightPdf {
+                at,
+                lights: &lights,
+            };
+            check_pdf(
+                &format!("light ({kind:?}, {at:?})"),
+                &built,
+                &pdf,
+                1.0,
+                13 + i as u64,
+            );
+        }
+    }
 }
 
 #[test]
 fn mixture_density_is_normalised_and_matches_its_draws() {
     let built = light_scene(false);
-    let lights = lights_of(&built);
-    let light = LightPdf {
-        origin: Vec3::ZERO,
-        lights: &lights,
-    };
-    let normal = Vec3::new(0.2, 1.0, 0.1).normalize();
-    let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
-    let mixture = MixturePdf::even(lambert_pdf(&lambert, normal), light);
-    check_pdf("mixture", &built, &mixture, 1.0, 14);
-    let sideways = Bsdf::lambert(Vec3::ONE, -Vec3::X, -Vec3::X);
-    let uneven = MixturePdf {
-        first: lambert_pdf(&sideways, -Vec3::X),
-        second: light,
-        weight: 0.2,
-    };
-    check_pdf("mixture 0.2/0.8", &built, &uneven, 1.0, 15);
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
+        let normal = Vec3::new(0.2, 1.0, 0.1).normalize();
+        let light = LightPdf {
+            at: Receiver {
+                p: Vec3::ZERO,
+                n: normal,
+            },
+            lights: &lights,
+        };
+        let lambert = Bsdf::lambert(Vec3::ONE, normal, normal);
+        let mixture = MixturePdf::even(lambert_pdf(&lambert, normal), light);
+        check_pdf(&format!("mixture ({kind:?})"), &built, &mixture, 1.0, 14);
+        let sideways = Bsdf::lambert(Vec3::ONE, -Vec3::X, -Vec3::X);
+        let uneven = MixturePdf {
+            first: lambert_pdf(&sideways, -Vec3::X),
+            second: light,
+            weight: 0.2,
+        };
+        check_pdf(
+            &format!("mixture 0.2/0.8 ({kind:?})"),
+            &built,
+            &uneven,
+            1.0,
+            15,
+        );
+    }
 }
 
 #[test]
 fn light_power_weighting_is_area_times_luminance() {
     let built = light_scene(false);
-    let lights = lights_of(&built);
-    // Quad: area 4, Ke 1 → 4; triangle: area 0.5, Ke 4 → 2. Densities per unit area:
-    // P / A = (4/6)/4 and (2/6)/0.5.
-    let quad_density = lights.area_density(0);
-    let tri_density = lights.area_density(2);
-    assert!((quad_density - 1.0 / 6.0).abs() < 1e-5, "{quad_density}");
-    assert!((tri_density - 2.0 / 3.0).abs() < 1e-5, "{tri_density}");
-    assert_eq!(lights.area_density(7), 0.0);
+    for kind in [LightSamplerKind::Alias, LightSamplerKind::SolidAngle] {
+        let lights = lights_with(&built, kind);
+        // Quad: area 4, Ke 1 → 4 (2 per half); triangle: area 0.5, Ke 4 → 2. The alias
+        // table's probabilities are 2/6 for each half of the quad, 2/6 for the triangle,
+        // wherever the receiver is.
+        for p in [Vec3::ZERO, Vec3::new(5.0, -3.0, 2.0)] {
+            let at = Receiver::at(p);
+            for prim in 0..3 {
+                let chosen = lights.choice_probability(at, prim);
+                assert!((chosen - 1.0 / 3.0).abs() < 1e-6, "{prim}: {chosen}");
+            }
+            assert_eq!(lights.choice_probability(at, 7), 0.0);
+        }
+    }
 }
 
 #[test]
 fn hidden_lights_make_void_draws_and_value_still_matches() {
     let built = light_scene(true);
-    let lights = lights_of(&built);
-    let pdf = LightPdf {
-        origin: Vec3::ZERO,
-        lights: &lights,
-    };
-    // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
-    let value = |dir: Vec3| {
-        let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
-        pdf.value(dir, hit.as_ref())
-    };
-    let integral: f64 = bin_integrals(&value, Vec3::Y, 20, 24, 12).iter().sum();
-    assert!(
-        integral < 0.95,
-        "occluder and back-facing light should hide mass"
-    );
-    check_pdf("light (occluded)", &built, &pdf, integral, 16);
+    for kind in LightSamplerKind::ALL {
+        let lights = lights_with(&built, kind);
+        let pdf = LightPdf {
+            at: Receiver::at(Vec3::ZERO),
+            lights: &lights,
+        };
+        // Integral = 1 − P(void); estimate it by quadrature, then check draws against it.
+        let value = |dir: Vec3| {
+            let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, dir));
+            pdf.value(dir, hit.as_ref())
+        };
+        let integral: f64 = bin_integrals(&value, Vec3::Y, 20, 24, 12).iter().sum();
+        assert!(
+            integral < 0.95,
+            "occluder and back-facing light should hide mass"
+        );
+        check_pdf(
+            &format!("light (occluded, {kind:?})"),
+            &built,
+            &pdf,
+            integral,
+            16,
+        );
+    }
 }
 
 #[test]
 fn light_value_equals_the_density_of_the_draw() {
-    for occluded in [false, true] {
+    for (occluded, kind) in [false, true]
+        .into_iter()
+        .flat_map(|o| LightSamplerKind::ALL.map(|k| (o, k)))
+    {
         let built = light_scene(occluded);
-        let lights = lights_of(&built);
+        let lights = lights_with(&built, kind);
+        let at = receivers()[1];
         let pdf = LightPdf {
-            origin: Vec3::ZERO,
+            at,
             lights: &lights,
         };
         let mut rng = Rng::seeded(17);
         let mut produced = 0;
         for _ in 0..20_000 {
-            let Some(sample) = lights.sample(Vec3::ZERO, &mut rng) else {
+            let Some(sample) = lights.sample(at, &mut rng) else {
                 continue;
             };
             let hit = built.accel.intersect(&Ray::new(Vec3::ZERO, sample.dir));

@@ -45,6 +45,7 @@ fn fixture() -> Fixture {
         max_depth: 5,
         seed: 11,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };
@@ -183,6 +184,30 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
         err.to_string().contains("accel embree") && err.to_string().contains("accel bvh"),
         "{err}"
     );
+    // So is another light sampler: its samples differ. The default is not named in
+    // the identity (which stays that of versions without the choice), so its side
+    // reads "(none)".
+    for (kind, name) in [
+        (ember::light::LightSamplerKind::SolidAngle, "solid-angle"),
+        (ember::light::LightSamplerKind::Bvh, "bvh"),
+    ] {
+        let other_lights = RenderSettings {
+            light_sampler: kind,
+            ..f.settings
+        };
+        let other_identity = identity_of(&f.scene, &f.camera_settings, &other_lights);
+        let err = checkpoint::load(&path, &other_identity, 0..6).unwrap_err();
+        assert!(
+            err.to_string().contains(&format!("light-sampler {name}"))
+                && err.to_string().contains("light-sampler (none)"),
+            "{err}"
+        );
+        // And the other way round: the default render refuses their checkpoint.
+        assert_eq!(
+            checkpoint::first_difference(&other_identity, &identity),
+            Some(("light-sampler".into(), name.into(), "(none)".into()))
+        );
+    }
     // A checkpoint continues the same sample range only.
     let err = checkpoint::load(&path, &identity, 2..6).unwrap_err();
     assert!(err.to_string().contains("needs 2..6"), "{err}");

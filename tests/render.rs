@@ -51,6 +51,7 @@ fn settings(size: u32, spp: u32, max_depth: u32) -> RenderSettings {
         max_depth,
         seed: 3,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     }

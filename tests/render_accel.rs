@@ -28,6 +28,7 @@ fn same_seed_same_image_with_either_backend() {
         max_depth: 6,
         seed: 7,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

@@ -412,6 +412,7 @@ fn a_killed_render_leaves_a_whole_checkpoint() {
         max_depth: 8,
         seed: 5,
         integrator: IntegratorKind::default(),
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

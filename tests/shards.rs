@@ -120,6 +120,7 @@ fn merged_films_equal_one_process_at_any_number_of_shards() {
         max_depth: 6,
         seed: 4,
         integrator: IntegratorKind::Mis,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

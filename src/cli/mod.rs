@@ -19,6 +19,7 @@ use signal_hook::iterator::Signals;
 
 use ember::accel::AccelKind;
 use ember::integrator::IntegratorKind;
+use ember::light::LightSamplerKind;
 
 /// From the call on, SIGINT and SIGTERM no longer end ember: the first one's number is
 /// stored in the returned flag (for the caller to stop its work and save it), later
@@ -79,6 +80,30 @@ pub enum IntegratorArg {
     /// Next-event estimation and material sampling combined by multiple importance
     /// sampling (power heuristic), with Russian roulette.
     Mis,
+}
+
+/// `--light-sampler`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum LightSamplerArg {
+    /// An alias table: emitters in proportion to power, wherever the point is; a
+    /// uniform point on the chosen triangle's area.
+    Alias,
+    /// The alias table, then a direction by solid angle where the triangle spans a
+    /// wide angle.
+    SolidAngle,
+    /// A light BVH (emitters weighed by power, distance and orientation at the point),
+    /// then solid-angle sampling as for `solid-angle`.
+    Bvh,
+}
+
+impl From<LightSamplerArg> for LightSamplerKind {
+    fn from(arg: LightSamplerArg) -> Self {
+        match arg {
+            LightSamplerArg::Bvh => LightSamplerKind::Bvh,
+            LightSamplerArg::Alias => LightSamplerKind::Alias,
+            LightSamplerArg::SolidAngle => LightSamplerKind::SolidAngle,
+        }
+    }
 }
 
 impl From<IntegratorArg> for IntegratorKind {

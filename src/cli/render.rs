@@ -14,7 +14,10 @@ use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
-use super::{parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, ToneArgs};
+use super::{
+    parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
+    ToneArgs,
+};
 use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
 use ember::embree::{BuildQuality, Device};
 use ember::film::aov::Aov;
@@ -125,6 +128,14 @@ pub struct RenderArgs {
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
     #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
     guiding_iterations: u32,
+    /// How light samples choose an emitter and a point on it: `alias` (an alias table
+    /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
+    /// a direction by solid angle where the triangle spans a wide angle) or `bvh` (a
+    /// light BVH weighing power, distance and orientation at the shading point, then
+    /// as `solid-angle`: fewer samples for the same error with many lights, more time
+    /// per sample).
+    #[arg(long, value_enum, default_value_t = LightSamplerArg::Alias)]
+    light_sampler: LightSamplerArg,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.
     #[arg(long, value_name = "SECONDS", value_parser = parse_seconds)]
@@ -264,6 +275,7 @@ impl RenderPlan {
                 max_depth: args.max_depth,
                 seed: args.seed,
                 integrator: args.integrator.into(),
+                light_sampler: args.light_sampler.into(),
                 adaptive,
                 guiding: args.guiding.then_some(Guiding {
                     iterations: args.guiding_iterations,
@@ -718,6 +730,13 @@ fn report_finished(
         Some(bytes) => format!(", peak memory {}", ember::limits::human_bytes(bytes)),
         None => String::new(),
     };
+    let lights = match stats.light_nodes {
+        0 => String::new(),
+        n => format!(
+            ", light BVH of {n} nodes built in {:.1} ms",
+            stats.light_build_seconds * 1e3
+        ),
+    };
     let spp = if s.adaptive.is_some() || plan.time_limit.is_some() {
         spp_summary(passes)
     } else {
@@ -734,7 +753,7 @@ fn report_finished(
         )
     });
     eprintln!(
-        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{guiding}{dropped}{peak}",
+        "wrote {}: {}x{}, {spp}{}, {accel} in {:.2} s: {:.0} samples/s, {:.2} Mrays/s{guiding}{dropped}{lights}{peak}",
         plan.output.display(),
         s.width,
         s.height,

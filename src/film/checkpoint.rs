@@ -491,14 +491,26 @@ impl PixelTally {
     }
 }
 
-/// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours).
+/// The first setting in which `theirs` differs from `ours`, as (key, theirs, ours);
+/// a key only one side has (such as `light-sampler`, named only when not the
+/// default) is a difference, its missing value written `(none)`.
 pub fn first_difference(theirs: &Identity, ours: &Identity) -> Option<(String, String, String)> {
-    ours.iter().find_map(|(key, value)| {
-        let other = theirs
+    let value_in = |identity: &Identity, key: &str| {
+        identity
             .iter()
             .find(|(k, _)| k == key)
-            .map_or("(none)", |(_, v)| v.as_str());
-        (other != value).then(|| (key.clone(), other.to_owned(), value.clone()))
+            .map_or("(none)", |(_, v)| v.as_str())
+            .to_owned()
+    };
+    let ours_first = ours.iter().find_map(|(key, value)| {
+        let other = value_in(theirs, key);
+        (other != *value).then(|| (key.clone(), other, value.clone()))
+    });
+    ours_first.or_else(|| {
+        theirs
+            .iter()
+            .find(|(key, _)| !ours.iter().any(|(k, _)| k == key))
+            .map(|(key, value)| (key.clone(), value.clone(), "(none)".to_owned()))
     })
 }
 

@@ -38,7 +38,7 @@ use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
 use crate::guiding::{mixture_pdf, NoRecords, PathRecorder, QuadTree, SdTree, GUIDE_PROBABILITY};
-use crate::light::{BsdfPdf, LightPdf, LightSampler, MixturePdf, Pdf};
+use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
 
@@ -96,19 +96,20 @@ enum EmissionWeight {
     /// Not at all: the light sample at the previous vertex already counted it.
     Skip,
     /// MIS weight of a BSDF sample drawn with this density against light sampling
-    /// (with a guide, the density of the BSDF–guide mixture that drew it).
-    Mis { bsdf_pdf: f32 },
+    /// from the receiver `from` (the vertex the ray left); with a guide, the density
+    /// of the BSDF–guide mixture that drew it.
+    Mis { bsdf_pdf: f32, from: Receiver },
 }
 
 impl EmissionWeight {
     /// The weight of light met by the ray, given the density with which light
     /// sampling would have chosen the same direction (asked for only under MIS).
     #[inline]
-    fn weight(self, light_pdf: impl FnOnce() -> f32) -> f32 {
+    fn weight(self, light_pdf: impl FnOnce(Receiver) -> f32) -> f32 {
         match self {
             EmissionWeight::Full => 1.0,
             EmissionWeight::Skip => 0.0,
-            EmissionWeight::Mis { bsdf_pdf } => power_heuristic(bsdf_pdf, light_pdf()),
+            EmissionWeight::Mis { bsdf_pdf, from } => power_heuristic(bsdf_pdf, light_pdf(from)),
         }
     }
 }
@@ -122,6 +123,16 @@ struct Step {
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
     traced: Option<Option<Hit>>,
+}
+
+/// A surface point as light sampling sees it: where it is, and the shading normal
+/// whose cosine the scattered light carries.
+#[inline]
+fn receiver(surface: &SurfacePoint) -> Receiver {
+    Receiver {
+        p: surface.p,
+        n: surface.ns,
+    }
 }
 
 /// Sets the passes of a sample from the vertex where they are taken.
@@ -149,12 +160,23 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 impl<'a, A: Accel> PathTracer<'a, A> {
     /// A tracer for `scene`, with its light distribution built once here.
     pub fn new(scene: &'a Scene, accel: &'a A, max_depth: u32, kind: IntegratorKind) -> Self {
+        Self::with_light_sampler(scene, accel, max_depth, kind, LightSamplerKind::default())
+    }
+
+    /// A tracer whose light samples choose emitters as `lights` says.
+    pub fn with_light_sampler(
+        scene: &'a Scene,
+        accel: &'a A,
+        max_depth: u32,
+        kind: IntegratorKind,
+        lights: LightSamplerKind,
+    ) -> Self {
         PathTracer {
             scene,
             accel,
             max_depth,
             kind,
-            lights: LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
+            lights: LightSampler::with_kind(&scene.mesh, &scene.materials, &scene.textures, lights)
                 .with_sky(scene.sky.clone(), scene.bounding_radius()),
             guide: None,
         }
@@ -270,9 +292,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
                 IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
                 IntegratorKind::Mis => match guide {
-                    Some(guide) => self.guided_step(&bsdf, wo, guide, rng),
+                    Some(guide) => self.guided_step(&bsdf, wo, guide, receiver(&surface), rng),
                     None => {
-                        let pending = EmissionWeight::Mis { bsdf_pdf: 0.0 };
+                        let pending = EmissionWeight::Mis {
+                            bsdf_pdf: 0.0,
+                            from: receiver(&surface),
+                        };
                         self.bsdf_step(&bsdf, wo, pending, rng)
                     }
                 },
@@ -284,7 +309,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             throughput *= step.weight;
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
-            if let EmissionWeight::Mis { bsdf_pdf } = step.emission {
+            if let EmissionWeight::Mis { bsdf_pdf, .. } = step.emission {
                 recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput);
             }
             if throughput == Vec3::ZERO {
@@ -310,14 +335,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
             return Vec3::ZERO;
         }
-        self.scene.emitted(surface) * how.weight(|| self.lights.pdf_hit(hit.prim, dir, hit.t))
+        self.scene.emitted(surface)
+            * how.weight(|from| self.lights.pdf_hit(from, hit.prim, dir, hit.t))
     }
 
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
     fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
-        let weight = how.weight(|| self.lights.pdf_sky(dir));
+        let weight = how.weight(|_| self.lights.pdf_sky(dir));
         if weight == 0.0 {
             return Vec3::ZERO;
         }
@@ -338,8 +364,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let sample: BsdfSample = bsdf.sample(wo, Vec2::new(u1, u2))?;
         let emission = match emission {
             _ if sample.delta => EmissionWeight::Full,
-            EmissionWeight::Mis { .. } => EmissionWeight::Mis {
+            EmissionWeight::Mis { from, .. } => EmissionWeight::Mis {
                 bsdf_pdf: sample.pdf,
+                from,
             },
             other => other,
         };
@@ -369,7 +396,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !self.lights.may_light(surface.p) {
             return Vec3::ZERO;
         }
-        let Some(light) = self.lights.sample(surface.p, rng) else {
+        let Some(light) = self.lights.sample(receiver(surface), rng) else {
             return Vec3::ZERO;
         };
         let (f, bsdf_pdf) = bsdf.eval_pdf(wo, light.dir);
@@ -400,7 +427,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// guide (probability [`GUIDE_PROBABILITY`]), weighted by `f·cos` over the
     /// mixture's density, which the next emission's MIS weight uses too.
     #[inline]
-    fn guided_step(&self, bsdf: &Bsdf, wo: Vec3, guide: &QuadTree, rng: &mut Rng) -> Option<Step> {
+    fn guided_step(
+        &self,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        guide: &QuadTree,
+        from: Receiver,
+        rng: &mut Rng,
+    ) -> Option<Step> {
         let from_guide = rng.f32() < GUIDE_PROBABILITY;
         let (u1, u2) = rng.pair();
         let (wi, value, bsdf_pdf) = if from_guide {
@@ -418,7 +452,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         Some(Step {
             dir: wi,
             weight: value / pdf,
-            emission: EmissionWeight::Mis { bsdf_pdf: pdf },
+            emission: EmissionWeight::Mis {
+                bsdf_pdf: pdf,
+                from,
+            },
             eta: 1.0,
             traced: None,
         })
@@ -443,7 +480,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng);
         }
         let light_pdf = LightPdf {
-            origin: surface.p,
+            at: receiver(surface),
             lights: &self.lights,
         };
         let mixture = MixturePdf::even(bsdf_pdf, light_pdf);

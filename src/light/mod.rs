@@ -1,9 +1,18 @@
 //! Light sampling: choosing points on the scene's emitters and directions towards its
 //! sky ([`LightSampler`]), and the book's densities over directions built on it and on
 //! the BSDF ([`Pdf`]: [`BsdfPdf`], [`LightPdf`], [`MixturePdf`]).
+//!
+//! An emitter is chosen by an alias table (by default, then a uniform point on its
+//! area) or by a light BVH ([`bvh`]); with `--light-sampler solid-angle` or `bvh`, a
+//! direction towards it by solid angle ([`spherical_triangle`]) or by area, as
+//! [`emitter`]'s rule decides.
 
+pub mod bvh;
+mod emitter;
 mod pdf;
 mod sampler;
+pub mod spherical_triangle;
 
+pub use emitter::{Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
 pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
-pub use sampler::{LightSample, LightSampler, LightTarget};
+pub use sampler::{LightSample, LightSampler, LightSamplerKind, LightTarget};

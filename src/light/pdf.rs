@@ -14,7 +14,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{LightSampler, LightTarget};
+use super::{LightSampler, LightTarget, Receiver};
 use crate::bsdf::Bsdf;
 use crate::geometry::Hit;
 use crate::sampling::Rng;
@@ -75,12 +75,12 @@ impl Pdf for BsdfPdf<'_> {
     }
 }
 
-/// Directions towards points on the scene's lights and its sky, as seen from `origin`
-/// (see [`LightSampler`]): a direction has the density of the light point it first
-/// hits, or of the sky where it leaves the scene.
+/// Directions towards points on the scene's lights and its sky, as seen from the
+/// receiver `at` (see [`LightSampler`]): a direction has the density of the light
+/// point it first hits, or of the sky where it leaves the scene.
 #[derive(Clone, Copy, Debug)]
 pub struct LightPdf<'a> {
-    pub origin: Vec3,
+    pub at: Receiver,
     pub lights: &'a LightSampler,
 }
 
@@ -88,14 +88,14 @@ impl Pdf for LightPdf<'_> {
     #[inline]
     fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
         match first_hit {
-            Some(hit) => self.lights.pdf_hit(hit.prim, dir, hit.t),
+            Some(hit) => self.lights.pdf_hit(self.at, hit.prim, dir, hit.t),
             None => self.lights.pdf_sky(dir),
         }
     }
 
     #[inline]
     fn generate(&self, rng: &mut Rng) -> Option<Direction> {
-        let sample = self.lights.sample(self.origin, rng)?;
+        let sample = self.lights.sample(self.at, rng)?;
         Some(Direction {
             dir: sample.dir,
             aimed_at: Some(sample.target),

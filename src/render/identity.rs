@@ -8,13 +8,15 @@ use xxhash_rust::xxh3::Xxh3;
 use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
+use crate::light::LightSamplerKind;
 use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
 /// (10: the native BVH's 8-wide nodes, whose traversal order may settle a tie between
-/// equally near triangles differently.)
+/// equally near triangles differently. The default light sampler is still version
+/// 10's; the others are told apart by the identity's `light-sampler` entry.)
 pub const ALGORITHM_VERSION: u32 = 10;
 
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
@@ -26,7 +28,14 @@ pub fn identity(
     accel: AccelKind,
 ) -> Identity {
     let v = |v: Vec3| format!("{:?},{:?},{:?}", v.x, v.y, v.z);
-    [
+    // Only a light sampler other than the default is named, so that a default render's
+    // identity (and its checkpoints and shards) are those of versions without the flag.
+    let light_sampler = match settings.light_sampler {
+        LightSamplerKind::Alias => None,
+        LightSamplerKind::SolidAngle => Some("solid-angle"),
+        LightSamplerKind::Bvh => Some("bvh"),
+    };
+    let mut pairs: Vec<(&str, String)> = vec![
         ("width", settings.width.to_string()),
         ("height", settings.height.to_string()),
         ("max-depth", settings.max_depth.to_string()),
@@ -56,11 +65,14 @@ pub fn identity(
         ("accel", format!("{accel:?}").to_lowercase()),
         ("algorithm", ALGORITHM_VERSION.to_string()),
         ("scene", format!("{:016x}", scene_hash(scene))),
-    ]
-    .into_iter()
+    ];
+    if let Some(name) = light_sampler {
+        // After the integrator, as where it was first added.
+        pairs.insert(5, ("light-sampler", name.to_owned()));
+    }
     // Only guided renders name their guide, so that unguided checkpoints and shards
     // made before guiding existed keep their identity.
-    .chain(settings.guiding.map(|g| {
+    let guiding = settings.guiding.map(|g| {
         (
             "guiding",
             format!(
@@ -68,9 +80,12 @@ pub fn identity(
                 g.iterations
             ),
         )
-    }))
-    .map(|(k, v)| (k.to_owned(), v))
-    .collect()
+    });
+    pairs
+        .into_iter()
+        .chain(guiding)
+        .map(|(k, v)| (k.to_owned(), v))
+        .collect()
 }
 
 /// Feeds values to the hash with their bit patterns, so that equal scenes hash equally

@@ -26,6 +26,7 @@ use crate::film::{Film, FilmTile, PixelSums, Sample};
 use crate::guiding::{Guiding, GuidingStats};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
+use crate::light::LightSamplerKind;
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 
@@ -40,6 +41,8 @@ pub struct RenderSettings {
     pub max_depth: u32,
     pub seed: u64,
     pub integrator: IntegratorKind,
+    /// How light samples choose an emitter.
+    pub light_sampler: LightSamplerKind,
     /// Adaptive sampling; `None` renders every pixel to `spp`.
     pub adaptive: Option<Adaptive>,
     /// Path guiding (`mis` only), trained before rendering; `None`: unguided.
@@ -56,6 +59,10 @@ pub struct RenderStats {
     pub dropped_samples: u64,
     /// The guide's training (included in `seconds`, not in `samples` or `rays`).
     pub guiding: Option<GuidingStats>,
+    /// Wall time of building the distribution over emitters, and its BVH nodes (0 for
+    /// the alias table).
+    pub light_build_seconds: f64,
+    pub light_nodes: usize,
 }
 
 impl RenderStats {
@@ -202,7 +209,14 @@ pub fn render_progressive<A: Accel>(
         "the film's samples are the render's"
     );
     let start = Instant::now();
-    let tracer = PathTracer::new(scene, accel, settings.max_depth, settings.integrator);
+    let tracer = PathTracer::with_light_sampler(
+        scene,
+        accel,
+        settings.max_depth,
+        settings.integrator,
+        settings.light_sampler,
+    );
+    let (light_build, light_nodes) = tracer.lights.build_cost();
     let trained = match settings.guiding {
         Some(guiding) if settings.integrator == IntegratorKind::Mis => {
             match train_guide(&tracer, camera, settings, guiding, control.stop) {
@@ -251,6 +265,8 @@ pub fn render_progressive<A: Accel>(
         rays,
         dropped_samples: dropped,
         guiding: trained.map(|t| t.1),
+        light_build_seconds: light_build.as_secs_f64(),
+        light_nodes,
     };
     (film, stats)
 }

@@ -95,6 +95,7 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         max_depth: 4,
         seed: 1,
         integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
     };

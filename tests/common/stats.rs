@@ -110,6 +110,18 @@ pub fn chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize) {
     (chi2, bins.saturating_sub(1))
 }
 
+/// Asserts that `observed` counts fit `expected` ones: Pearson's chi-square below
+/// about five standard deviations above its mean.
+pub fn assert_chi_square(name: &str, observed: &[f64], expected: &[f64]) {
+    let (chi2, dof) = chi_square(observed, expected);
+    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
+    eprintln!("{name}: chi2 {chi2:.1} dof {dof}");
+    assert!(
+        chi2 < limit,
+        "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})"
+    );
+}
+
 /// How finely [`check_density`] bins and integrates.
 #[derive(Clone, Copy, Debug)]
 pub struct Binning {
@@ -156,14 +168,8 @@ pub fn check_density(
     );
     let (counts, void) = histogram(density.draw, axis, nz, nphi, n, seed);
     let expected: Vec<f64> = integrals.iter().map(|p| p * n as f64).collect();
-    let (chi2, dof) = chi_square(&counts, &expected);
-    // About five standard deviations above the mean of the chi-square distribution.
-    let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
-    eprintln!("{name}: chi2 {chi2:.1} dof {dof} integral {integral:.5} void {void}");
-    assert!(
-        chi2 < limit,
-        "{name}: chi-square {chi2:.1} over {dof} dof (limit {limit:.1})"
-    );
+    eprintln!("{name}: integral {integral:.5} void {void}");
+    assert_chi_square(name, &counts, &expected);
     // The void draws are the mass missing from the integral.
     let p_void = 1.0 - total;
     let sigma = (n as f64 * p_void.max(1e-3) * (1.0 - p_void)).sqrt();

@@ -1,0 +1,598 @@
+//! Light sampling checked against mathematics: spherical-triangle sampling and the
+//! emitter's strategy rule against their densities (chi-square over cells of the
+//! triangle), the light BVH's choice probabilities (they sum to 1 and match the
+//! frequencies of its choices), and direct light from constructed scenes with known
+//! answers.
+
+mod common;
+
+use std::f64::consts::PI;
+
+use common::stats::{assert_chi_square, monte_carlo};
+use common::{build, diffuse, Built};
+use ember::light::bvh::{LightBounds, LightBvh};
+use ember::light::spherical_triangle::{
+    bilinear_density, sample_bilinear, SphericalTriangle, Warp,
+};
+use ember::light::{
+    LightSampler, LightSamplerKind, LightTarget, Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE,
+};
+use ember::sampling::{uniform_sphere, Rng};
+use glam::{DVec3, Vec3};
+
+/// An emitting triangle in the plane y = 0, emitting downwards (−y).
+const TRIANGLE: [Vec3; 3] = [
+    Vec3::new(-1.0, 0.0, -1.0),
+    Vec3::new(1.0, 0.0, -1.0),
+    Vec3::new(0.0, 0.0, 1.0),
+];
+
+/// Receivers below [`TRIANGLE`]: near and far, face-on and grazing, with and without
+/// a normal (the cosine warp), as (name, receiver).
+fn receivers() -> Vec<(&'static str, Receiver)> {
+    let up = Vec3::new(0.3, 1.0, 0.2).normalize();
+    let side = Vec3::new(1.0, 0.1, 0.0).normalize();
+    let mut out = Vec::new();
+    for (name, p) in [
+        ("near face-on", Vec3::new(0.0, -0.3, 0.0)),
+        ("touching", Vec3::new(0.1, -0.004, -0.2)),
+        ("near grazing", Vec3::new(2.5, -0.15, 0.3)),
+        ("middle", Vec3::new(0.5, -20.0, 1.0)),
+        ("far face-on", Vec3::new(0.0, -100.0, 0.0)),
+        ("far grazing", Vec3::new(30.0, -1.0, 5.0)),
+    ] {
+        out.push((name, Receiver::at(p)));
+        out.push((name, Receiver { p, n: up }));
+        out.push((name, Receiver { p, n: side }));
+    }
+    out
+}
+
+/// Where the point `q` of a triangle lies in its parameters: `q = v0 + s·e1 + t·e2`.
+fn parameters(v: [Vec3; 3], q: Vec3) -> (f64, f64) {
+    let [v0, v1, v2] = v.map(|x| x.as_dvec3());
+    let (e1, e2, d) = (v1 - v0, v2 - v0, q.as_dvec3() - v0);
+    let (d00, d01, d11) = (e1.dot(e1), e1.dot(e2), e2.dot(e2));
+    let (d20, d21) = (d.dot(e1), d.dot(e2));
+    let denominator = d00 * d11 - d01 * d01;
+    (
+        (d11 * d20 - d01 * d21) / denominator,
+        (d00 * d21 - d01 * d20) / denominator,
+    )
+}
+
+/// Which of the `n²` congruent triangles that split the unit triangle `s, t ≥ 0,
+/// s + t ≤ 1` holds `(s, t)`: the square cell `(i, j)` of an `n × n` grid, its lower
+/// or upper half.
+fn sub_triangle(s: f64, t: f64, n: usize) -> usize {
+    let (x, y) = (s * n as f64, t * n as f64);
+    let (i, j) = (
+        (x.max(0.0) as usize).min(n - 1),
+        (y.max(0.0) as usize).min(n - 1),
+    );
+    let upper = x - i as f64 + y - j as f64 >= 1.0;
+    2 * (i * n + j) + usize::from(upper)
+}
+
+/// Chi-square of points drawn on triangle `v` against a solid-angle density seen from
+/// `p`. The bins are 256 congruent sub-triangles; a bin's expected share is
+/// `∫ density · cos α / d² dA` over it (midpoint rule over 64 finer triangles each),
+/// which also checks that the density integrates to 1 over the triangle.
+fn check_on_triangle(
+    name: &str,
+    p: Vec3,
+    v: [Vec3; 3],
+    density: &dyn Fn(Vec3, f32) -> f64,
+    draw: &dyn Fn(&mut Rng) -> Option<Vec3>,
+    seed: u64,
+) {
+    const CELLS: usize = 16;
+    const FINE: usize = CELLS * 8;
+    const DRAWS: usize = 200_000;
+    let [v0, v1, v2] = v;
+    let cross = (v1 - v0).cross(v2 - v0);
+    let (normal, double_area) = (cross.normalize(), f64::from(cross.length()));
+    let mut expected = vec![0.0; 2 * CELLS * CELLS];
+    let h = 1.0 / FINE as f64;
+    for i in 0..FINE {
+        for j in 0..FINE - i {
+            // The lower fine triangle of cell (i, j), and the upper one where it is
+            // inside the unit triangle, by their centroids.
+            for (ds, dt) in [(1.0 / 3.0, 1.0 / 3.0), (2.0 / 3.0, 2.0 / 3.0)] {
+                let (s, t) = ((i as f64 + ds) * h, (j as f64 + dt) * h);
+                if s + t >= 1.0 {
+                    continue;
+                }
+                let q =
+                    (v0.as_dvec3() + s * (v1 - v0).as_dvec3() + t * (v2 - v0).as_dvec3()).as_vec3();
+                let to_q = (q - p).as_dvec3();
+                let d2 = to_q.length_squared();
+                let dir = (to_q / d2.sqrt()).as_vec3();
+                let cos = f64::from(dir.dot(normal).abs());
+                let mass = density(dir, d2.sqrt() as f32) * cos / d2 * double_area * h * h / 2.0;
+                expected[sub_triangle(s, t, CELLS)] += mass;
+            }
+        }
+    }
+    let total: f64 = expected.iter().sum();
+    assert!(
+        (total - 1.0).abs() < 2e-3,
+        "{name}: the density integrates to {total} over the triangle"
+    );
+    let mut observed = vec![0.0; 2 * CELLS * CELLS];
+    let mut rng = Rng::seeded(seed);
+    let mut void = 0;
+    for _ in 0..DRAWS {
+        let Some(q) = draw(&mut rng) else {
+            void += 1;
+            continue;
+        };
+        let (s, t) = parameters(v, q);
+        observed[sub_triangle(s, t, CELLS)] += 1.0;
+    }
+    let expected: Vec<f64> = expected.iter().map(|e| e * DRAWS as f64).collect();
+    eprintln!("{name}: total {total:.5} void {void}");
+    assert_chi_square(name, &observed, &expected);
+    assert!(void < DRAWS / 1000, "{name}: {void} void draws");
+}
+
+/// Where the ray from `p` along `w` meets the plane of `v`.
+fn on_plane(p: Vec3, w: DVec3, v: [Vec3; 3]) -> Vec3 {
+    let [v0, v1, v2] = v.map(|x| x.as_dvec3());
+    let n = (v1 - v0).cross(v2 - v0);
+    let t = (v0 - p.as_dvec3()).dot(n) / w.dot(n);
+    (p.as_dvec3() + t * w).as_vec3()
+}
+
+#[test]
+fn spherical_triangle_draws_follow_their_density() {
+    for (k, (name, at)) in receivers().into_iter().enumerate() {
+        let triangle = SphericalTriangle::new(at.p, TRIANGLE).expect("a proper triangle");
+        // Nearly touching, the projected density peaks far more sharply than the
+        // quadrature grid resolves (and the emitter samples by area there).
+        if triangle.solid_angle() > MAX_SOLID_ANGLE {
+            continue;
+        }
+        let warp: Option<Warp> = (at.n != Vec3::ZERO).then(|| triangle.cosine_warp(at.n));
+        let density = |dir: Vec3, _distance: f32| triangle.density(dir.as_dvec3(), warp.as_ref());
+        let draw = |rng: &mut Rng| {
+            let u = [rng.f64(), rng.f64()];
+            let u = warp.as_ref().map_or(u, |w| sample_bilinear(w, u));
+            Some(on_plane(at.p, triangle.sample(u), TRIANGLE))
+        };
+        let label = format!("spherical {name}, n {:?}", at.n);
+        check_on_triangle(&label, at.p, TRIANGLE, &density, &draw, 100 + k as u64);
+    }
+}
+
+#[test]
+fn the_warp_density_is_the_bilinear_density_at_the_inverted_point() {
+    let at = Receiver {
+        p: Vec3::new(0.4, -0.5, 0.1),
+        n: Vec3::new(1.0, 0.2, 0.0).normalize(),
+    };
+    let triangle = SphericalTriangle::new(at.p, TRIANGLE).unwrap();
+    let warp = triangle.cosine_warp(at.n);
+    let mut rng = Rng::seeded(5);
+    for _ in 0..1000 {
+        let u = sample_bilinear(&warp, [rng.f64(), rng.f64()]);
+        let w = triangle.sample(u);
+        let expected = bilinear_density(&warp, u) / triangle.solid_angle();
+        let got = triangle.density(w, Some(&warp));
+        assert!(
+            (got - expected).abs() < 1e-7 * expected,
+            "{got} vs {expected}"
+        );
+    }
+}
+
+fn one_emitter() -> Built {
+    build(
+        &[(TRIANGLE, 0)],
+        vec![diffuse(Vec3::splat(0.5), Vec3::splat(2.0))],
+    )
+}
+
+fn sampler(built: &Built, kind: LightSamplerKind) -> LightSampler {
+    LightSampler::with_kind(
+        &built.scene.mesh,
+        &built.scene.materials,
+        &built.scene.textures,
+        kind,
+    )
+}
+
+/// The default sampler is area sampling, from every receiver whatever its solid angle:
+/// its points are uniform over the triangle (chi-square over 64 congruent
+/// sub-triangles) and its density is `d² / (cos α · A)` with `A = 2` here, the one
+/// emitter being chosen with probability 1.
+#[test]
+fn the_default_sampler_draws_uniform_points_on_the_area() {
+    const CELLS: usize = 8;
+    const DRAWS: usize = 64_000;
+    let built = one_emitter();
+    let lights = sampler(&built, LightSamplerKind::default());
+    assert_eq!(lights.kind(), Some(LightSamplerKind::Alias));
+    for (k, (name, at)) in receivers().into_iter().enumerate() {
+        assert!(!lights.samples_by_solid_angle(at, 0), "{name}");
+        let mut rng = Rng::seeded(90 + k as u64);
+        let mut observed = vec![0.0; 2 * CELLS * CELLS];
+        for _ in 0..DRAWS {
+            let sample = lights.sample(at, &mut rng).expect("the emitter faces it");
+            let q = sample.point.unwrap().p;
+            let cos = -sample.dir.dot(Vec3::NEG_Y);
+            let area_density = sample.distance * sample.distance / (cos * 2.0);
+            assert!(
+                (sample.pdf - area_density).abs() <= 1e-4 * area_density,
+                "{name}: pdf {} vs d²/(cos A) {area_density}",
+                sample.pdf
+            );
+            let (s, t) = parameters(TRIANGLE, q);
+            observed[sub_triangle(s, t, CELLS)] += 1.0;
+        }
+        // The n² sub-triangles inside the unit triangle: lower halves of the cells
+        // with i + j < n, upper halves of those with i + j < n − 1.
+        let inside = |i: usize, j: usize, upper: bool| i + j + usize::from(upper) < CELLS;
+        let mut kept = Vec::new();
+        for i in 0..CELLS {
+            for j in 0..CELLS {
+                for upper in [false, true] {
+                    let bin = observed[2 * (i * CELLS + j) + usize::from(upper)];
+                    if inside(i, j, upper) {
+                        kept.push(bin);
+                    } else {
+                        assert_eq!(bin, 0.0, "{name}: a point outside the triangle");
+                    }
+                }
+            }
+        }
+        assert_eq!(kept.len(), CELLS * CELLS);
+        let expected = vec![(DRAWS / (CELLS * CELLS)) as f64; CELLS * CELLS];
+        assert_chi_square(&format!("area sampling, {name}"), &kept, &expected);
+    }
+}
+
+/// The emitter's draws follow the density `pdf_hit` reports for them, whichever
+/// strategy the rule picks; and the receivers cover solid-angle sampling, area sampling
+/// of a huge triangle and area sampling of small or far ones.
+#[test]
+fn emitter_draws_follow_the_density_of_their_strategy() {
+    let built = one_emitter();
+    let mut cases = [0; 3];
+    for kind in LightSamplerKind::ALL {
+        let lights = sampler(&built, kind);
+        for (k, (name, at)) in receivers().into_iter().enumerate() {
+            let omega = SphericalTriangle::new(at.p, TRIANGLE)
+                .unwrap()
+                .solid_angle();
+            let by_solid_angle = lights.samples_by_solid_angle(at, 0);
+            if by_solid_angle {
+                assert!((MIN_SOLID_ANGLE..=MAX_SOLID_ANGLE).contains(&omega));
+            }
+            let case = match () {
+                _ if by_solid_angle => 0,
+                _ if omega > MAX_SOLID_ANGLE => 1,
+                _ => 2,
+            };
+            cases[case] += 1;
+            let density =
+                |dir: Vec3, distance: f32| f64::from(lights.pdf_hit(at, 0, dir, distance));
+            let draw = |rng: &mut Rng| {
+                let sample = lights.sample(at, rng)?;
+                assert_eq!(sample.target, LightTarget::Emitter(0));
+                let value = lights.pdf_hit(at, 0, sample.dir, sample.distance);
+                assert!(
+                    (value - sample.pdf).abs() <= 1e-3 * sample.pdf,
+                    "{name}: pdf_hit {value} vs the draw's {}",
+                    sample.pdf
+                );
+                Some(sample.point.unwrap().p)
+            };
+            let label = format!("emitter ({kind:?}) {name}, n {:?}", at.n);
+            check_on_triangle(&label, at.p, TRIANGLE, &density, &draw, 200 + k as u64);
+        }
+    }
+    assert!(
+        cases.iter().all(|&c| c > 0),
+        "rule cases exercised: {cases:?}"
+    );
+}
+
+/// Random emitters: positions in a box, normals anywhere, powers over four decades
+/// (some zero); with each one's vertices.
+fn random_lights(n: usize, seed: u64) -> (Vec<LightBounds>, Vec<[Vec3; 3]>) {
+    let mut rng = Rng::seeded(seed);
+    (0..n)
+        .map(|i| {
+            let center = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 10.0 - 5.0;
+            let (u1, u2) = rng.pair();
+            let normal = uniform_sphere(u1, u2);
+            let onb = ember::sampling::Onb::from_w(normal);
+            let size = 0.05 + 0.3 * rng.f32();
+            let vertices =
+                [0.0f32, 2.1, 4.2].map(|a| center + size * (a.cos() * onb.u + a.sin() * onb.v));
+            let power = if i % 17 == 16 {
+                0.0
+            } else {
+                10f32.powf(4.0 * rng.f32())
+            };
+            (LightBounds::triangle(vertices, normal, power), vertices)
+        })
+        .unzip()
+}
+
+fn random_receiver(rng: &mut Rng, with_normal: bool) -> (Vec3, Vec3) {
+    let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 14.0 - 7.0;
+    let (u1, u2) = rng.pair();
+    (
+        p,
+        if with_normal {
+            uniform_sphere(u1, u2)
+        } else {
+            Vec3::ZERO
+        },
+    )
+}
+
+#[test]
+fn bvh_probabilities_sum_to_one_and_vanish_only_where_no_light_shines() {
+    for n in [1, 2, 3, 300] {
+        let (lights, vertices) = random_lights(n, 31 + n as u64);
+        let bvh = LightBvh::new(&lights).expect("some power");
+        let mut rng = Rng::seeded(7);
+        let mut zero = 0;
+        for k in 0..400 {
+            let (p, normal) = random_receiver(&mut rng, k % 2 == 0);
+            let probabilities: Vec<f32> = (0..n).map(|i| bvh.probability(p, normal, i)).collect();
+            let sum: f32 = probabilities.iter().sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-4,
+                "{n} lights at {p}: probabilities sum to {sum}"
+            );
+            for (i, &probability) in probabilities.iter().enumerate() {
+                assert!(probability >= 0.0);
+                if lights[i].power == 0.0 {
+                    assert_eq!(probability, 0.0, "a light without power is chosen");
+                }
+                if probability == 0.0 && lights[i].power > 0.0 {
+                    zero += 1;
+                }
+            }
+            // A light given probability 0 must be unable to shine on p: p is behind
+            // its plane.
+            for (i, light) in lights.iter().enumerate() {
+                if probabilities[i] == 0.0 && light.power > 0.0 {
+                    for v in vertices[i] {
+                        assert!(
+                            (p - v).dot(light.axis) <= 1e-4,
+                            "light {i} can shine on {p} but has probability 0"
+                        );
+                    }
+                }
+            }
+        }
+        if n == 300 {
+            assert!(zero > 0, "the orientation cones never excluded a light");
+        }
+    }
+}
+
+#[test]
+fn bvh_choices_follow_its_probabilities() {
+    let n = 60;
+    let (lights, _) = random_lights(n, 5);
+    let bvh = LightBvh::new(&lights).unwrap();
+    let mut rng = Rng::seeded(9);
+    for k in 0..6 {
+        let (p, normal) = random_receiver(&mut rng, k % 2 == 1);
+        let draws = 200_000;
+        let mut counts = vec![0.0; n];
+        let mut draw_rng = Rng::seeded(1000 + k);
+        for _ in 0..draws {
+            let (i, probability, rest) = bvh.sample(p, normal, draw_rng.f64());
+            assert_eq!(
+                probability,
+                bvh.probability(p, normal, i),
+                "reported probability"
+            );
+            assert!((0.0..1.0).contains(&rest));
+            counts[i] += 1.0;
+        }
+        let expected: Vec<f64> = (0..n)
+            .map(|i| f64::from(bvh.probability(p, normal, i)) * draws as f64)
+            .collect();
+        assert_chi_square(&format!("bvh choices at {p}"), &counts, &expected);
+    }
+}
+
+#[test]
+fn bvh_build_is_deterministic() {
+    let (lights, _) = random_lights(500, 3);
+    let a = LightBvh::new(&lights).unwrap();
+    let b = LightBvh::new(&lights).unwrap();
+    assert_eq!(a.node_count(), 2 * (500 - 500 / 17) - 1);
+    let p = Vec3::new(0.3, -1.0, 2.0);
+    for i in 0..500 {
+        assert_eq!(
+            a.probability(p, Vec3::Y, i).to_bits(),
+            b.probability(p, Vec3::Y, i).to_bits()
+        );
+    }
+}
+
+/// Irradiance from a uniformly emitting polygon (Lambert's formula): `L/2 Σ θ_i
+/// (n · unit(r_i × r_{i+1}))` over its edges seen from `p`, with sign for the side.
+fn lambert_irradiance(p: Vec3, n: Vec3, v: [Vec3; 3], radiance: f64) -> f64 {
+    let r = v.map(|x| (x - p).as_dvec3().normalize());
+    let n = n.as_dvec3();
+    let sum: f64 = (0..3)
+        .map(|i| {
+            let (a, b) = (r[i], r[(i + 1) % 3]);
+            let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+            theta * n.dot(a.cross(b).normalize())
+        })
+        .sum();
+    radiance * 0.5 * sum.abs()
+}
+
+/// A receiver above a large emitting triangle, and one beside it at a grazing angle:
+/// the light-sampling estimate of the irradiance matches Lambert's formula (the
+/// triangle lies wholly above the receivers' tangent planes).
+#[test]
+fn irradiance_under_a_large_triangle_matches_lamberts_formula() {
+    let built = one_emitter();
+    for kind in LightSamplerKind::ALL {
+        let lights = sampler(&built, kind);
+        // The receivers face the light: cos > 0 over all of it.
+        for (seed, at) in [
+            Receiver {
+                p: Vec3::new(0.0, -0.2, 0.0),
+                n: Vec3::Y,
+            },
+            Receiver {
+                p: Vec3::new(0.3, -0.02, -0.1),
+                n: Vec3::Y,
+            },
+            Receiver {
+                p: Vec3::new(2.0, -0.5, 0.0),
+                n: Vec3::new(-1.0, 0.3, 0.0).normalize(),
+            },
+            Receiver {
+                p: Vec3::new(0.0, -30.0, 0.0),
+                n: Vec3::Y,
+            },
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let expected = lambert_irradiance(at.p, at.n, TRIANGLE, 2.0);
+            let mut rng = Rng::seeded(40 + seed as u64);
+            let (estimate, sigma) = monte_carlo(200_000, || {
+                lights.sample(at, &mut rng).map_or(0.0, |s| {
+                    f64::from(s.emission.x * s.dir.dot(at.n).max(0.0) / s.pdf)
+                })
+            });
+            assert!(
+                (estimate - expected).abs() < 4.0 * sigma + 1e-4 * expected,
+                "{kind:?} at {:?}: {estimate} ± {sigma} vs {expected}",
+                at.p
+            );
+        }
+    }
+}
+
+/// A sphere of emitters (a latitude-longitude mesh, facing inwards), each with its
+/// own radiance: seen from inside, `∫ L dω = Σ L_i Ω_i`, and with one radiance for all
+/// the irradiance is `π L` on any receiver.
+fn emitter_sphere(radiance: &dyn Fn(usize) -> f32) -> (Built, Vec<[Vec3; 3]>) {
+    let (rings, segments) = (12, 24);
+    let point = |i: usize, j: usize| {
+        let theta = PI * i as f64 / rings as f64;
+        let phi = 2.0 * PI * j as f64 / segments as f64;
+        Vec3::new(
+            (theta.sin() * phi.cos()) as f32,
+            theta.cos() as f32,
+            (theta.sin() * phi.sin()) as f32,
+        )
+    };
+    let mut triangles = Vec::new();
+    for i in 0..rings {
+        for j in 0..segments {
+            let (a, b, c, d) = (
+                point(i, j),
+                point(i + 1, j),
+                point(i + 1, j + 1),
+                point(i, j + 1),
+            );
+            for t in [[a, b, c], [a, c, d]] {
+                let cross = (t[1] - t[0]).cross(t[2] - t[0]);
+                if cross.length() < 1e-6 {
+                    continue;
+                }
+                // Wound to face the centre.
+                let centroid = (t[0] + t[1] + t[2]) / 3.0;
+                triangles.push(if cross.dot(centroid) > 0.0 {
+                    [t[0], t[2], t[1]]
+                } else {
+                    t
+                });
+            }
+        }
+    }
+    let materials = (0..triangles.len())
+        .map(|i| diffuse(Vec3::splat(0.5), Vec3::splat(radiance(i))))
+        .collect();
+    let tris: Vec<([Vec3; 3], u32)> = triangles
+        .iter()
+        .enumerate()
+        .map(|(i, t)| (*t, i as u32))
+        .collect();
+    (build(&tris, materials), triangles)
+}
+
+#[test]
+fn a_sphere_of_emitters_gives_the_known_direct_light() {
+    let mixed = |i: usize| 10f32.powf(((i * 37) % 11) as f32 / 5.0 - 1.0);
+    let (built, triangles) = emitter_sphere(&mixed);
+    let (uniform, _) = emitter_sphere(&|_| 1.5);
+    let receivers = [
+        Receiver::at(Vec3::ZERO),
+        Receiver {
+            p: Vec3::new(0.3, -0.5, 0.2),
+            n: Vec3::new(0.2, 1.0, -0.3).normalize(),
+        },
+        Receiver {
+            p: Vec3::new(-0.1, 0.85, 0.0),
+            n: Vec3::X,
+        },
+    ];
+    for kind in LightSamplerKind::ALL {
+        let lights = sampler(&built, kind);
+        let uniform_lights = sampler(&uniform, kind);
+        for (k, at) in receivers.into_iter().enumerate() {
+            // Radiance integrated over the sphere of directions.
+            let expected: f64 = triangles
+                .iter()
+                .enumerate()
+                .map(|(i, t)| {
+                    let omega = SphericalTriangle::new(at.p, *t).unwrap().solid_angle();
+                    f64::from(mixed(i)) * omega
+                })
+                .sum();
+            let mut rng = Rng::seeded(60 + k as u64);
+            let (estimate, sigma) = monte_carlo(200_000, || {
+                lights
+                    .sample(at, &mut rng)
+                    .map_or(0.0, |s| f64::from(s.emission.x / s.pdf))
+            });
+            assert!(
+                (estimate - expected).abs() < 4.0 * sigma,
+                "{kind:?} at {:?}: ∫L dω {estimate} ± {sigma} vs {expected}",
+                at.p
+            );
+            // The choice probabilities sum to 1 here too.
+            let sum: f32 = (0..triangles.len() as u32)
+                .map(|prim| lights.choice_probability(at, prim))
+                .sum();
+            assert!(
+                (sum - 1.0).abs() < 1e-4,
+                "{kind:?}: probabilities sum to {sum}"
+            );
+            if at.n == Vec3::ZERO {
+                continue;
+            }
+            let mut rng = Rng::seeded(70 + k as u64);
+            let (irradiance, sigma) = monte_carlo(200_000, || {
+                uniform_lights.sample(at, &mut rng).map_or(0.0, |s| {
+                    f64::from(s.emission.x * s.dir.dot(at.n).max(0.0) / s.pdf)
+                })
+            });
+            let expected = PI * 1.5;
+            assert!(
+                (irradiance - expected).abs() < 4.0 * sigma + 1e-3 * expected,
+                "{kind:?} at {:?}: irradiance {irradiance} ± {sigma} vs π L = {expected}",
+                at.p
+            );
+        }
+    }
+}
