@@ -39,6 +39,11 @@ SCENES = {
     "original": ("meshes/CornellBox-Original.obj", "cornell-box/cornell_ref_8192spp.exr"),
     "glossy": ("meshes/CornellBox-GlossyMix.obj", "cornell-glossy/CornellBox-GlossyMix_ref_4096spp.exr"),
 }
+# The grey-white room of shared/meshes (lit by its sky through the windows), at the
+# reference's size; the reference is an ember render given by --room-reference (not
+# shipped), e.g. 160x90 at 8192 spp.
+ROOM_FLAGS = ["--env-rotate", "-90", "--fov", "58.7155", "--eye", "5.10518,0.731065,-2.31789",
+              "--look-at", "4.143388,0.805472,-2.054414", "--up", "0.071763,0.997228,-0.019659"]
 
 
 def run(cmd):
@@ -56,9 +61,16 @@ def rel_mse(ember, image, reference):
 
 
 def ember_point(args, scene, out, extra):
-    obj = os.path.join(ROOT, SCENES[scene][0])
-    cmd = [args.ember, "render", obj, "--width", str(SIZE), "--height", str(SIZE),
-           "--max-depth", str(DEPTH), "--seed", "1", *CAMERA, "-o", out, *extra]
+    if scene == "room":
+        obj = os.path.join(args.room_dir, "living-room.obj")
+        env = os.path.join(args.room_dir, "textures", "Sky 19.exr")
+        w, h = args.room_size.split("x")
+        view = ["--width", w, "--height", h, "--env", env, *ROOM_FLAGS]
+    else:
+        obj = os.path.join(ROOT, SCENES[scene][0])
+        view = ["--width", str(SIZE), "--height", str(SIZE), *CAMERA]
+    cmd = [args.ember, "render", obj, "--max-depth", str(DEPTH), "--seed", "1", *view,
+           "-o", out, *extra]
     wall, done = run(cmd)
     summary = [l for l in done.stderr.splitlines() if l.startswith("wrote")][-1]
     return wall, summary
@@ -104,6 +116,10 @@ def main():
     ap.add_argument("--scenes", default="original,glossy")
     ap.add_argument("--target-original", type=float, default=1e-3)
     ap.add_argument("--target-glossy", type=float, default=1e-2)
+    ap.add_argument("--target-room", type=float, default=1e-2)
+    ap.add_argument("--room-dir", help="shared/meshes/grey-white-room")
+    ap.add_argument("--room-reference", help="a converged ember render of the room")
+    ap.add_argument("--room-size", default="160x90")
     ap.add_argument("--cycles-dir")
     ap.add_argument("--cycles-python", default=sys.executable)
     args = ap.parse_args()
@@ -112,7 +128,7 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         for scene in args.scenes.split(","):
             target = getattr(args, f"target_{scene}")
-            reference = os.path.join(REFS, SCENES[scene][1])
+            reference = args.room_reference if scene == "room" else os.path.join(REFS, SCENES[scene][1])
             print(f"{scene}: target relMSE {target:g}")
 
             def ember_measure(extra):
@@ -136,7 +152,7 @@ def main():
                  ember_measure(lambda spp: ["--spp", str(spp), "--denoise"])),
                 ("adaptive+denoise", doubling, ember_measure(lambda spp: budget(spp) + ["--denoise"])),
             ]
-            if args.cycles_dir:
+            if args.cycles_dir and scene != "room":  # Cycles' peer maps no textures
                 def cycles_measure(spp):
                     out = os.path.join(tmp, "c.exr")
                     wall, note = cycles_point(args, scene, out, spp)
