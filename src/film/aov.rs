@@ -2,6 +2,7 @@
 //! its radiance, resolved to per-pixel values for an EXR layer or the denoiser.
 
 use super::{Film, PixelSums};
+use crate::image::layers::names;
 
 /// A render pass `--aov` can ask for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -29,14 +30,14 @@ impl Aov {
         Aov::Spp,
     ];
 
-    /// The name on the command line and of the EXR layer.
+    /// The name on the command line and of the EXR layer ([`names`]).
     pub fn name(self) -> &'static str {
         match self {
-            Aov::Albedo => "albedo",
-            Aov::Normal => "normal",
-            Aov::Depth => "depth",
-            Aov::Variance => "variance",
-            Aov::Spp => "spp",
+            Aov::Albedo => names::ALBEDO,
+            Aov::Normal => names::NORMAL,
+            Aov::Depth => names::DEPTH,
+            Aov::Variance => names::VARIANCE,
+            Aov::Spp => names::SPP,
         }
     }
 
@@ -47,8 +48,8 @@ impl Aov {
     /// The pass's channel names, as EXR viewers expect them for such data.
     pub fn channels(self) -> &'static [&'static str] {
         match self {
-            Aov::Albedo | Aov::Variance => &["R", "G", "B"],
-            Aov::Normal => &["X", "Y", "Z"],
+            Aov::Albedo | Aov::Variance => &names::RGB,
+            Aov::Normal => &names::XYZ,
             Aov::Depth => &["Z"],
             Aov::Spp => &["Y"],
         }
