@@ -161,11 +161,6 @@ impl Film {
         self.pixels.iter().map(|p| u64::from(p.done)).sum()
     }
 
-    /// How many pixels adaptive sampling has stopped.
-    pub fn converged_count(&self) -> usize {
-        self.pixels.iter().filter(|p| p.converged).count()
-    }
-
     /// Whether every pixel has every sample of the film's range, or was stopped by
     /// adaptive sampling.
     pub fn is_complete(&self) -> bool {
