@@ -203,15 +203,49 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// the render passes of its path: albedo and shading normal at the first vertex
     /// whose BSDF is not a delta (mirrors and glass are seen through, as Open Image
     /// Denoise asks), and the distance to the first hit.
+    ///
+    /// The path loop is instantiated once unguided and once guided, chosen here once
+    /// per sample: the unguided instantiation has no guide lookups and no recorder
+    /// calls left in it (the code from before guiding existed, at the same instruction
+    /// count), so a render without `--guiding` does not pay for guiding.
     #[inline]
     pub fn sample(&self, ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
-        self.sample_recorded(ray, rng, count, &mut NoRecords)
+        match self.guide {
+            None => self.path::<false, NoRecords>(ray, rng, count, &mut NoRecords),
+            Some(_) => self.guided_path(ray, rng, count, &mut NoRecords),
+        }
     }
 
     /// [`sample`](Self::sample), telling `recorder` what the path finds at each vertex
-    /// (the training of a guide).
+    /// (the training of a guide, which is always guided, at first by the uniform tree).
     #[inline]
     pub fn sample_recorded<R: PathRecorder>(
+        &self,
+        ray: Ray,
+        rng: &mut Rng,
+        count: &mut RayCount,
+        recorder: &mut R,
+    ) -> Sample {
+        self.guided_path(ray, rng, count, recorder)
+    }
+
+    /// The guided instantiation of the path loop, kept out of line so that the
+    /// unguided one is inlined into the tile loop exactly as before guiding existed.
+    #[inline(never)]
+    fn guided_path<R: PathRecorder>(
+        &self,
+        ray: Ray,
+        rng: &mut Rng,
+        count: &mut RayCount,
+        recorder: &mut R,
+    ) -> Sample {
+        self.path::<true, R>(ray, rng, count, recorder)
+    }
+
+    /// The path loop of [`sample_recorded`](Self::sample_recorded); `GUIDED` says
+    /// whether `self.guide` is set.
+    #[inline(always)]
+    fn path<const GUIDED: bool, R: PathRecorder>(
         &self,
         mut ray: Ray,
         rng: &mut Rng,
@@ -263,12 +297,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
             let guide = match self.guide {
-                Some(tree) if mis && !bsdf.is_delta() => Some(tree.at(surface.p)),
+                Some(tree) if GUIDED && mis && !bsdf.is_delta() => Some(tree.at(surface.p)),
                 _ => None,
             };
             if next_event {
-                let light =
-                    self.direct_light(&surface, &bsdf, wo, (mis, guide), rng, recorder, count);
+                let light = self.direct_light::<GUIDED, R>(
+                    &surface,
+                    &bsdf,
+                    wo,
+                    (mis, guide),
+                    rng,
+                    recorder,
+                    count,
+                );
                 let light = throughput * light;
                 radiance += light;
                 recorder.added(light);
@@ -352,7 +393,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
 
     /// Follows the BSDF's own sample. A `Mis` emission weight is completed with the
     /// sample's density; a delta sample's next emission always counts in full.
-    #[inline]
+    #[inline(always)]
     fn bsdf_step(
         &self,
         bsdf: &Bsdf,
@@ -383,7 +424,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// `f·cos · Le / pdf` if the shadow ray is clear, times the power-heuristic weight
     /// against BSDF sampling when `mis` (against the BSDF–guide mixture with a guide).
     #[allow(clippy::too_many_arguments)]
-    fn direct_light<R: PathRecorder>(
+    #[inline(always)]
+    fn direct_light<const GUIDED: bool, R: PathRecorder>(
         &self,
         surface: &SurfacePoint,
         bsdf: &Bsdf,
@@ -413,10 +455,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
         let weight = match (mis, guide) {
             (false, _) => 1.0,
-            (true, None) => power_heuristic(light.pdf, bsdf_pdf),
-            (true, Some(guide)) => {
+            (true, Some(guide)) if GUIDED => {
                 power_heuristic(light.pdf, mixture_pdf(bsdf_pdf, guide.pdf(light.dir)))
             }
+            (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
         recorder.light_sample(surface.p, light.dir, light.emission * (weight / light.pdf));
         // In this order, as before guiding existed: unguided samples keep their bits.

@@ -468,7 +468,7 @@ pub fn pixel_sample<A: Accel>(
 
 /// The camera ray of sample `sample` of pixel `(x, y)` and the random stream its path
 /// goes on with.
-#[inline]
+#[inline(always)]
 fn camera_ray(
     camera: &Camera,
     seed: u64,
