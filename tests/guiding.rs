@@ -5,6 +5,7 @@
 
 mod common;
 
+use std::f32::consts::PI;
 use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::atomic::AtomicUsize;
@@ -14,7 +15,8 @@ use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
-    cosine_mass_in_cone, mass_in_cone, Guiding, QuadTree, SdTree, GUIDE_PROBABILITY,
+    cosine_mass_in_cone, mass_in_cone, Guiding, MixtureDraw, QuadTree, Record, SdTree, VertexGuide,
+    GUIDE_PROBABILITY, MIN_SELECTION_DRAWS, SELECTION_CHOICES,
 };
 use ember::integrator::{IntegratorKind, PathTracer};
 use ember::render::{identity, render, train_guide, RenderSettings};
@@ -143,6 +145,116 @@ fn trained_guide_is_normalised_and_follows_its_density() {
             draws: 100_000,
         },
         7,
+    );
+}
+
+/// Folded onto a hemisphere (untrained, trained, and around a normal the lobes lie on
+/// both sides of), the guide's density is 0 below the surface, integrates to 1, and its
+/// draws follow it (chi-square); the mixture's density integrates to 1 as well.
+#[test]
+fn folded_guide_is_normalised_and_follows_its_density() {
+    let trained = trained_tree();
+    let uniform = QuadTree::uniform();
+    let normals = [
+        Vec3::Z,
+        Vec3::new(0.6, -0.3, 0.2).normalize(),
+        Vec3::new(-0.8, 0.1, -0.3).normalize(),
+    ];
+    for (tree, name) in [(&uniform, "uniform"), (&trained, "trained")] {
+        for (i, &n) in normals.iter().enumerate() {
+            let guide = VertexGuide::new(tree, n, 0.5);
+            assert_eq!(guide.pdf(-n), 0.0);
+            check_density(
+                &format!("{name} guide folded about normal {i}"),
+                &Density {
+                    value: &|d| guide.pdf(d),
+                    draw: &|rng| {
+                        let (u1, u2) = rng.pair();
+                        Some(guide.sample(Vec2::new(u1, u2)))
+                    },
+                },
+                n,
+                1.0,
+                2e-2,
+                Binning {
+                    nz: 10,
+                    nphi: 12,
+                    sub: 48,
+                    draws: 100_000,
+                },
+                13 + i as u64,
+            );
+            // The mixture with a cosine "BSDF" (density cos/π above the surface).
+            let cosine = |d: Vec3| n.dot(d).max(0.0) * std::f32::consts::FRAC_1_PI;
+            let total = mass_in_cone(&|d| guide.mixture_pdf(cosine(d), d), n, 0.5 * PI);
+            assert!(
+                (total - 1.0).abs() < 2e-2,
+                "{name} {i}: ∫ mixture = {total}"
+            );
+        }
+    }
+    // Folding moves the trained tree's mass below the surface onto it: the mass above
+    // around lobe B's normal is all of it, against the tree's own share above.
+    let n = Vec3::new(-0.8, 0.1, -0.3).normalize();
+    let above = mass_in_cone(&|d| trained.pdf(d), n, 0.5 * PI);
+    assert!(above < 0.9, "the tree's own mass above: {above}");
+}
+
+/// The box-filtered deposit adds exactly the value deposited, spreads it over the
+/// neighbouring cells of the cell it falls in, and keeps a direction's energy near it.
+#[test]
+fn filtered_deposits_keep_their_energy() {
+    let mut tree = trained_tree().cleared();
+    let d = Vec3::new(0.3, 0.4, 0.866).normalize();
+    tree.deposit_filtered(d, 2.5);
+    assert!(
+        (tree.energy() - 2.5).abs() < 1e-9,
+        "energy {}",
+        tree.energy()
+    );
+    let mut plain = tree.cleared();
+    plain.deposit(d, 2.5);
+    // The plain deposit puts everything in the cell of `d`, the filter only part.
+    let refined = tree.refined();
+    assert!(refined.pdf(d) < plain.refined().pdf(d));
+    assert!(refined.pdf(d) > 0.0);
+}
+
+/// The selection probability learnt per region minimises the estimated second moment:
+/// draws whose integrand is the guide's density pick the largest choice, draws whose
+/// integrand is the BSDF's density pick the smallest; too few draws keep ½.
+#[test]
+fn selection_probability_follows_the_second_moment() {
+    let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    let mut rng = Rng::seeded(9);
+    let mut train = |integrand_is_guide: bool, draws: usize| {
+        let mut tree = SdTree::new(bounds).cleared();
+        for _ in 0..draws {
+            // A BSDF density b and a guide density g that disagree per draw.
+            let (u1, u2) = rng.pair();
+            let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
+            let pdf = 0.5 * b + 0.5 * g;
+            let integrand = if integrand_is_guide { g } else { b };
+            tree.deposit(&Record {
+                p: Vec3::ZERO,
+                dir: Vec3::Z,
+                value: 1.0,
+                mixture: Some(MixtureDraw {
+                    integrand,
+                    bsdf_pdf: b,
+                    guide_pdf: g,
+                    pdf,
+                }),
+            });
+        }
+        tree.refined(1).selection_at(Vec3::ZERO)
+    };
+    let last = *SELECTION_CHOICES.last().unwrap();
+    assert_eq!(train(true, 5000), last);
+    assert_eq!(train(false, 5000), SELECTION_CHOICES[0]);
+    assert_eq!(
+        train(true, MIN_SELECTION_DRAWS as usize - 1),
+        GUIDE_PROBABILITY
     );
 }
 

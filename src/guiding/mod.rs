@@ -23,13 +23,17 @@
 mod quadtree;
 mod record;
 mod sdtree;
+mod vertex;
 
 pub use quadtree::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, QuadTree,
     MAX_QUAD_DEPTH, SUBDIVISION_SHARE,
 };
-pub use record::{NoRecords, PathRecorder, PathRecords, Record};
-pub use sdtree::{SdTree, MAX_SPATIAL_NODES, SPLIT_RECORDS_PER_SQRT_SPP};
+pub use record::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record};
+pub use sdtree::{
+    SdTree, MAX_SPATIAL_NODES, MIN_SELECTION_DRAWS, SELECTION_CHOICES, SPLIT_RECORDS_PER_SQRT_SPP,
+};
+pub use vertex::VertexGuide;
 
 /// Probability of drawing a direction from the guide rather than the BSDF. Fixed at
 /// ½ as in Müller et al. 2017: the path weight `f·cos / (½ p_bsdf + ½ p_guide)` is then
@@ -38,12 +42,6 @@ pub use sdtree::{SdTree, MAX_SPATIAL_NODES, SPLIT_RECORDS_PER_SQRT_SPP};
 /// has learnt well half the paths follow the light. (Learning the fraction per region,
 /// as their 2019 follow-up does, is not done.)
 pub const GUIDE_PROBABILITY: f32 = 0.5;
-
-/// The density of the one-sample mixture of a BSDF density and a guide density.
-#[inline]
-pub fn mixture_pdf(bsdf_pdf: f32, guide_pdf: f32) -> f32 {
-    (1.0 - GUIDE_PROBABILITY) * bsdf_pdf + GUIDE_PROBABILITY * guide_pdf
-}
 
 /// How a render is guided: the number of training iterations (iteration `k` takes
 /// `2^k` samples per pixel, so `2^iterations − 1` in all), at most [`MAX_ITERATIONS`].

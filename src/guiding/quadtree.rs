@@ -160,6 +160,62 @@ impl QuadTree {
         }
     }
 
+    /// Adds `value` spread by a box filter around `d`: over a square the size of the
+    /// cell containing `d`, centred on it (clipped to the unit square), each cell
+    /// receiving the share of the box it overlaps (Müller et al.'s directional filter,
+    /// done exactly rather than by jittering, so deposits stay deterministic). The
+    /// total added is `value`.
+    pub fn deposit_filtered(&mut self, d: Vec3, value: f64) {
+        let p = direction_to_square(d);
+        let half = Vec2::splat(0.5 * self.cell_size(p));
+        let lo = (p - half).max(Vec2::ZERO);
+        let hi = (p + half).min(Vec2::ONE);
+        let area = f64::from((hi - lo).x) * f64::from((hi - lo).y);
+        if area <= 0.0 {
+            self.deposit(d, value);
+            return;
+        }
+        self.splat(0, Vec2::ZERO, 1.0, (lo, hi), value / area);
+    }
+
+    /// The side of the leaf cell containing `p` in the square.
+    fn cell_size(&self, mut p: Vec2) -> f32 {
+        let (mut node, mut size) = (0usize, 1.0f32);
+        loop {
+            let (q, local) = quadrant(p);
+            size *= 0.5;
+            match self.nodes[node].child[q] {
+                0 => return size,
+                c => (node, p) = (c as usize, local),
+            }
+        }
+    }
+
+    /// Adds `density` times the overlap area of the box `(lo, hi)` with each quadrant
+    /// of `node` (covering the square at `origin` of side `size`), and below.
+    fn splat(
+        &mut self,
+        node: usize,
+        origin: Vec2,
+        size: f32,
+        (lo, hi): (Vec2, Vec2),
+        density: f64,
+    ) {
+        let half = 0.5 * size;
+        for q in 0..4 {
+            let at = origin + Vec2::new((q & 1) as f32, (q >> 1) as f32) * half;
+            let overlap = (hi.min(at + Vec2::splat(half)) - lo.max(at)).max(Vec2::ZERO);
+            let area = f64::from(overlap.x) * f64::from(overlap.y);
+            if area <= 0.0 {
+                continue;
+            }
+            self.nodes[node].energy[q] += density * area;
+            if let c @ 1.. = self.nodes[node].child[q] {
+                self.splat(c as usize, at, half, (lo, hi), density);
+            }
+        }
+    }
+
     /// Density per unit area of the square at `p`.
     #[inline]
     pub fn square_pdf(&self, mut p: Vec2) -> f32 {

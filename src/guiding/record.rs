@@ -10,20 +10,45 @@ const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
 /// `value` is its estimate (mean over colour channels) over the density with which
-/// `dir` was drawn.
+/// `dir` was drawn; `mixture` says how a guided vertex drew it (none for light samples).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
     pub dir: Vec3,
     pub value: f32,
+    pub mixture: Option<MixtureDraw>,
 }
+
+/// A direction drawn from the BSDF–guide mixture at a vertex: what the selection
+/// probability is learnt from (see [`SdTree::refined`](super::SdTree::refined)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MixtureDraw {
+    /// The integrand's estimate along the direction, `f·cos · L` (mean over channels).
+    pub integrand: f32,
+    pub bsdf_pdf: f32,
+    pub guide_pdf: f32,
+    /// The mixture's density, with which the direction was drawn.
+    pub pdf: f32,
+}
+
+/// What a guided vertex tells its recorder about the draw, on request: the BSDF's
+/// value `f·cos` and density and the guide's density along the direction drawn.
+pub type MixtureTerms = (Vec3, f32, f32);
 
 /// What the path tracer tells a recorder as a path unfolds.
 pub trait PathRecorder {
     /// The path left the non-delta vertex `p` along `dir`, drawn with density `pdf`,
     /// and its throughput is now `throughput`: what it adds from now on, divided by
-    /// that throughput, is the radiance that arrived along `dir`.
-    fn scattered(&mut self, p: Vec3, dir: Vec3, pdf: f32, throughput: Vec3);
+    /// that throughput, is the radiance that arrived along `dir`. At a guided vertex,
+    /// `mixture` gives the draw's [`MixtureTerms`] (evaluated only if asked for).
+    fn scattered(
+        &mut self,
+        p: Vec3,
+        dir: Vec3,
+        pdf: f32,
+        throughput: Vec3,
+        mixture: impl FnOnce() -> Option<MixtureTerms>,
+    );
     /// The path's estimate grew by `contribution`.
     fn added(&mut self, contribution: Vec3);
     /// A light sample at `p` along `dir` found `incident_over_pdf` (radiance times its
@@ -38,7 +63,15 @@ pub struct NoRecords;
 
 impl PathRecorder for NoRecords {
     #[inline(always)]
-    fn scattered(&mut self, _: Vec3, _: Vec3, _: f32, _: Vec3) {}
+    fn scattered(
+        &mut self,
+        _: Vec3,
+        _: Vec3,
+        _: f32,
+        _: Vec3,
+        _: impl FnOnce() -> Option<MixtureTerms>,
+    ) {
+    }
     #[inline(always)]
     fn added(&mut self, _: Vec3) {}
     #[inline(always)]
@@ -54,6 +87,7 @@ struct Open {
     pdf: f32,
     throughput: Vec3,
     radiance: Vec3,
+    mixture: Option<MixtureTerms>,
 }
 
 /// Records a path's vertices into `out` when it ends.
@@ -78,7 +112,14 @@ fn mean(v: Vec3) -> f32 {
 }
 
 impl PathRecorder for PathRecords<'_> {
-    fn scattered(&mut self, p: Vec3, dir: Vec3, pdf: f32, throughput: Vec3) {
+    fn scattered(
+        &mut self,
+        p: Vec3,
+        dir: Vec3,
+        pdf: f32,
+        throughput: Vec3,
+        mixture: impl FnOnce() -> Option<MixtureTerms>,
+    ) {
         if self.len < MAX_OPEN && pdf > 0.0 {
             self.open[self.len] = Open {
                 p,
@@ -86,6 +127,7 @@ impl PathRecorder for PathRecords<'_> {
                 pdf,
                 throughput,
                 radiance: Vec3::ZERO,
+                mixture: mixture(),
             };
             self.len += 1;
         }
@@ -103,7 +145,12 @@ impl PathRecorder for PathRecords<'_> {
     fn light_sample(&mut self, p: Vec3, dir: Vec3, incident_over_pdf: Vec3) {
         let value = mean(incident_over_pdf);
         if value.is_finite() {
-            self.out.push(Record { p, dir, value });
+            self.out.push(Record {
+                p,
+                dir,
+                value,
+                mixture: None,
+            });
         }
     }
 
@@ -111,10 +158,17 @@ impl PathRecorder for PathRecords<'_> {
         for v in &self.open[..self.len] {
             let value = mean(v.radiance) / v.pdf;
             if value.is_finite() {
+                let mixture = v.mixture.map(|(f, bsdf_pdf, guide_pdf)| MixtureDraw {
+                    integrand: mean(f * v.radiance),
+                    bsdf_pdf,
+                    guide_pdf,
+                    pdf: v.pdf,
+                });
                 self.out.push(Record {
                     p: v.p,
                     dir: v.dir,
                     value,
+                    mixture,
                 });
             }
         }

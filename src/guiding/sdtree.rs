@@ -4,6 +4,18 @@
 use glam::Vec3;
 
 use super::quadtree::QuadTree;
+use super::record::{MixtureDraw, Record};
+use super::vertex::VertexGuide;
+use super::GUIDE_PROBABILITY;
+
+/// The selection probabilities a leaf chooses from (see [`SdTree::refined`]): never
+/// below 0.1 nor above 0.8, so that the path weight stays within 1.25× (all BSDF
+/// draws lost) and 10× (all guide draws lost) of the better of the two.
+pub const SELECTION_CHOICES: [f32; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+
+/// A leaf keeps the fixed [`GUIDE_PROBABILITY`] until this many guided draws were
+/// recorded in it: fewer are too noisy an estimate of the second moment.
+pub const MIN_SELECTION_DRAWS: u64 = 256;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
 /// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
@@ -23,12 +35,54 @@ enum SpatialNode {
     Leaf { leaf: u32, axis: u8 },
 }
 
-/// One region of space: its directional distribution and how many records fell in
-/// it during the iteration that filled it.
+/// One region of space: its directional distribution, how many records fell in it
+/// during the iteration that filled it, its probability of drawing from the guide,
+/// and the sums that choose the next one.
 #[derive(Clone, Debug, PartialEq)]
 struct Leaf {
     directions: QuadTree,
     records: u64,
+    selection: f32,
+    /// For each of [`SELECTION_CHOICES`], the sum over guided draws of
+    /// `F² / (p_α · p)`: `F` the integrand's estimate, `p_α` the mixture density with
+    /// that choice, `p` the density the draw had.
+    moments: [f64; SELECTION_CHOICES.len()],
+    draws: u64,
+}
+
+impl Leaf {
+    fn uniform() -> Leaf {
+        Leaf {
+            directions: QuadTree::uniform(),
+            records: 0,
+            selection: GUIDE_PROBABILITY,
+            moments: [0.0; SELECTION_CHOICES.len()],
+            draws: 0,
+        }
+    }
+
+    fn add_draw(&mut self, m: &MixtureDraw) {
+        let f = f64::from(m.integrand);
+        for (sum, &a) in self.moments.iter_mut().zip(&SELECTION_CHOICES) {
+            let pa = f64::from((1.0 - a) * m.bsdf_pdf + a * m.guide_pdf);
+            if pa > 0.0 {
+                *sum += f * f / (pa * f64::from(m.pdf));
+            }
+        }
+        self.draws += 1;
+    }
+
+    /// The choice of the smallest estimated second moment, or the fixed default
+    /// with too few draws.
+    fn best_selection(&self) -> f32 {
+        if self.draws < MIN_SELECTION_DRAWS || !self.moments.iter().all(|m| m.is_finite()) {
+            return GUIDE_PROBABILITY;
+        }
+        let best = (0..SELECTION_CHOICES.len())
+            .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
+            .unwrap_or(4);
+        SELECTION_CHOICES[best]
+    }
 }
 
 /// A spatial-directional tree (see [`crate::guiding`]).
@@ -50,10 +104,7 @@ impl SdTree {
             min,
             extent: (max - min).max(Vec3::splat(1e-6)),
             nodes: vec![SpatialNode::Leaf { leaf: 0, axis: 0 }],
-            leaves: vec![Leaf {
-                directions: QuadTree::uniform(),
-                records: 0,
-            }],
+            leaves: vec![Leaf::uniform()],
         }
     }
 
@@ -75,20 +126,113 @@ impl SdTree {
         }
     }
 
-    /// The directional distribution that guides paths at `p`.
+    /// The directional distribution of the region of `p`.
     #[inline]
     pub fn at(&self, p: Vec3) -> &QuadTree {
         &self.leaves[self.leaf_of(p)].directions
     }
 
+    /// The guide of a vertex at `p` whose BSDF reflects into the side of the unit
+    /// `normal`: its region's distribution folded onto that side, with its region's
+    /// selection probability (see [`VertexGuide`]).
+    #[inline]
+    pub fn guide_at(&self, p: Vec3, normal: Vec3) -> VertexGuide<'_> {
+        let leaf = &self.leaves[self.leaf_of(p)];
+        VertexGuide::new(&leaf.directions, normal, leaf.selection)
+    }
+
+    /// The selection probability of the region of `p`.
+    pub fn selection_at(&self, p: Vec3) -> f32 {
+        self.leaves[self.leaf_of(p)].selection
+    }
+
     /// Adds a record: `value` (incident radiance over the density of its direction)
-    /// arrived at `p` from the unit direction `d`.
-    pub fn deposit(&mut self, p: Vec3, d: Vec3, value: f64) {
-        let leaf = self.leaf_of(p);
-        let leaf = &mut self.leaves[leaf];
-        leaf.records += 1;
+    /// arrived at `p` from the unit direction `d`. The record counts in the leaf of
+    /// `p` only; its value is spread by box filters over space and direction (see
+    /// [`deposit_filtered`](Self::deposit_filtered)).
+    pub fn deposit(&mut self, record: &Record) {
+        let leaf = self.leaf_of(record.p);
+        let leaf_data = &mut self.leaves[leaf];
+        leaf_data.records += 1;
+        if let Some(m) = &record.mixture {
+            leaf_data.add_draw(m);
+        }
+        let value = f64::from(record.value);
         if value.is_finite() && value > 0.0 {
-            leaf.directions.deposit(d, value);
+            self.deposit_filtered(record.p, record.dir, value);
+        }
+    }
+
+    /// Müller et al.'s spatial box filter, done exactly: `value` is shared among the
+    /// leaves overlapping a box the size of the leaf of `p`, centred on `p` (clipped
+    /// to the tree's box), in proportion to the volume of the box each holds, and each
+    /// share is spread over directions by [`QuadTree::deposit_filtered`].
+    /// Deterministic (no jitter), so records folded in a fixed order give the same
+    /// tree at any thread count.
+    fn deposit_filtered(&mut self, p: Vec3, d: Vec3, value: f64) {
+        let x = ((p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
+        let half = 0.5 * self.leaf_size(x);
+        let (lo, hi) = ((x - half).max(Vec3::ZERO), (x + half).min(Vec3::ONE));
+        let size = hi - lo;
+        let volume = f64::from(size.x) * f64::from(size.y) * f64::from(size.z);
+        if volume <= 0.0 {
+            let leaf = self.leaf_of(p);
+            self.leaves[leaf].directions.deposit_filtered(d, value);
+            return;
+        }
+        self.splat(0, (Vec3::ZERO, Vec3::ONE), (lo, hi), d, value / volume);
+    }
+
+    /// The extent, in the unit cube of the tree's box, of the leaf containing `x`.
+    fn leaf_size(&self, mut x: Vec3) -> Vec3 {
+        let (mut node, mut size) = (0usize, Vec3::ONE);
+        loop {
+            match self.nodes[node] {
+                SpatialNode::Leaf { .. } => return size,
+                SpatialNode::Inner { axis, children } => {
+                    let a = axis as usize;
+                    let upper = x[a] >= 0.5;
+                    x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
+                    size[a] *= 0.5;
+                    node = children[usize::from(upper)] as usize;
+                }
+            }
+        }
+    }
+
+    /// Deposits `density` times the volume the box `(lo, hi)` shares with each leaf
+    /// under `node` (whose region is `region`).
+    fn splat(
+        &mut self,
+        node: usize,
+        region: (Vec3, Vec3),
+        (lo, hi): (Vec3, Vec3),
+        d: Vec3,
+        density: f64,
+    ) {
+        match self.nodes[node] {
+            SpatialNode::Leaf { leaf, .. } => {
+                let overlap = (hi.min(region.1) - lo.max(region.0)).max(Vec3::ZERO);
+                let volume = f64::from(overlap.x) * f64::from(overlap.y) * f64::from(overlap.z);
+                if volume > 0.0 {
+                    self.leaves[leaf as usize]
+                        .directions
+                        .deposit_filtered(d, density * volume);
+                }
+            }
+            SpatialNode::Inner { axis, children } => {
+                let a = axis as usize;
+                let mid = 0.5 * (region.0[a] + region.1[a]);
+                let (mut lower, mut upper) = (region, region);
+                lower.1[a] = mid;
+                upper.0[a] = mid;
+                if lo[a] < mid {
+                    self.splat(children[0] as usize, lower, (lo, hi), d, density);
+                }
+                if hi[a] > mid {
+                    self.splat(children[1] as usize, upper, (lo, hi), d, density);
+                }
+            }
         }
     }
 
@@ -123,6 +267,8 @@ impl SdTree {
         for leaf in &mut tree.leaves {
             leaf.directions = leaf.directions.cleared();
             leaf.records = 0;
+            leaf.moments = [0.0; SELECTION_CHOICES.len()];
+            leaf.draws = 0;
         }
         tree
     }
@@ -133,9 +279,20 @@ impl SdTree {
     /// from the parent's records, half the count each, and split again while above),
     /// while the node budget allows; then every quadtree is rebuilt from its energy
     /// ([`QuadTree::refined`]). Deterministic: leaves are visited in index order.
+    ///
+    /// Each leaf's selection probability becomes the one of [`SELECTION_CHOICES`]
+    /// whose estimated second moment `Σ F² / (p_α · p)` over the leaf's guided draws
+    /// is smallest (an unbiased estimate of `∫ F² / p_α`, the second moment of the
+    /// estimator with that choice): the fixed [`GUIDE_PROBABILITY`] where the guide
+    /// learnt well or badly alike is the weakest part of Müller et al. 2017, and their
+    /// 2019 follow-up learns it per region too (by gradient descent; this is the same
+    /// objective minimised over a grid). Split leaves keep their parent's.
     pub fn refined(&self, spp: u32) -> SdTree {
         let threshold = SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt();
         let mut tree = self.clone();
+        for leaf in &mut tree.leaves {
+            leaf.selection = leaf.best_selection();
+        }
         let mut node = 0;
         while node < tree.nodes.len() {
             if let SpatialNode::Leaf { leaf, axis } = tree.nodes[node] {
@@ -149,6 +306,8 @@ impl SdTree {
         for leaf in &mut tree.leaves {
             leaf.directions = leaf.directions.refined();
             leaf.records = 0;
+            leaf.moments = [0.0; SELECTION_CHOICES.len()];
+            leaf.draws = 0;
         }
         tree
     }

@@ -37,7 +37,7 @@ use glam::{Vec2, Vec3};
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
-use crate::guiding::{mixture_pdf, NoRecords, PathRecorder, QuadTree, SdTree, GUIDE_PROBABILITY};
+use crate::guiding::{NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -132,6 +132,17 @@ fn receiver(surface: &SurfacePoint) -> Receiver {
     Receiver {
         p: surface.p,
         n: surface.ns,
+    }
+}
+
+/// The unit shading normal turned to the side of `wo`, the hemisphere a reflective
+/// BSDF scatters into (the side of the geometric normal `wo` is on decides).
+#[inline]
+fn reflecting_normal(surface: &SurfacePoint, wo: Vec3) -> Vec3 {
+    if wo.dot(surface.ng) < 0.0 {
+        -surface.ns
+    } else {
+        surface.ns
     }
 }
 
@@ -297,7 +308,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
             let guide = match self.guide {
-                Some(tree) if GUIDED && mis && !bsdf.is_delta() => Some(tree.at(surface.p)),
+                Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
+                    Some(tree.guide_at(surface.p, reflecting_normal(&surface, wo)))
+                }
                 _ => None,
             };
             if next_event {
@@ -351,7 +364,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
             if let EmissionWeight::Mis { bsdf_pdf, .. } = step.emission {
-                recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput);
+                let mixture = || {
+                    let guide = guide?;
+                    let (f, pdf) = bsdf.eval_pdf(wo, step.dir);
+                    Some((f, pdf, guide.pdf(step.dir)))
+                };
+                recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput, mixture);
             }
             if throughput == Vec3::ZERO {
                 break;
@@ -430,7 +448,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         surface: &SurfacePoint,
         bsdf: &Bsdf,
         wo: Vec3,
-        (mis, guide): (bool, Option<&QuadTree>),
+        (mis, guide): (bool, Option<VertexGuide>),
         rng: &mut Rng,
         recorder: &mut R,
         count: &mut RayCount,
@@ -456,7 +474,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
-                power_heuristic(light.pdf, mixture_pdf(bsdf_pdf, guide.pdf(light.dir)))
+                power_heuristic(light.pdf, guide.mixture_pdf(bsdf_pdf, light.dir))
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
@@ -466,18 +484,18 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     }
 
     /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the
-    /// guide (probability [`GUIDE_PROBABILITY`]), weighted by `f·cos` over the
+    /// guide (with the guide's selection probability), weighted by `f·cos` over the
     /// mixture's density, which the next emission's MIS weight uses too.
     #[inline]
     fn guided_step(
         &self,
         bsdf: &Bsdf,
         wo: Vec3,
-        guide: &QuadTree,
+        guide: VertexGuide,
         from: Receiver,
         rng: &mut Rng,
     ) -> Option<Step> {
-        let from_guide = rng.f32() < GUIDE_PROBABILITY;
+        let from_guide = rng.f32() < guide.selection();
         let (u1, u2) = rng.pair();
         let (wi, value, bsdf_pdf) = if from_guide {
             let wi = guide.sample(Vec2::new(u1, u2));
@@ -487,7 +505,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
             (sample.wi, sample.value, sample.pdf)
         };
-        let pdf = mixture_pdf(bsdf_pdf, guide.pdf(wi));
+        let pdf = guide.mixture_pdf(bsdf_pdf, wi);
         if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
             return None;
         }

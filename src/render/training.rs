@@ -82,7 +82,7 @@ pub fn train_guide<A: Accel>(
             // In tile order, whichever worker rendered them: the sums are the same
             // floating-point sums at any thread count.
             for r in records.iter().flatten() {
-                filling.deposit(r.p, r.dir, f64::from(r.value));
+                filling.deposit(r);
             }
         }
         samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
