@@ -9,12 +9,18 @@
 //!   (divided by the density of its direction) into a cleared copy; that copy,
 //!   refined ([`SdTree::refined`]), is the next tree. The records are folded in tile
 //!   order, so the tree does not depend on the number of threads.
+//!   Records are spread by Müller et al.'s box filters, over the neighbouring
+//!   regions (a box the size of the record's region) and the neighbouring cells of
+//!   each quadtree (a square the size of the record's cell), exactly rather than by
+//!   jittering, so the tree stays a function of the records and their order.
 //! - Sampling (`mis` only, at every non-delta vertex): a one-sample mixture of the
-//!   BSDF's sampling and the guide's, with probability [`GUIDE_PROBABILITY`] each; the
-//!   mixture's density is what the path's weight divides by and what multiple
-//!   importance sampling weighs against next-event estimation. The BSDF half keeps the
-//!   density positive wherever the integrand is, so the estimate stays unbiased
-//!   whatever the guide learnt.
+//!   BSDF's sampling and the guide's ([`VertexGuide`]: the region's distribution
+//!   folded onto the hemisphere the BSDF reflects into), drawing from the guide with
+//!   the region's learnt selection probability ([`SdTree::refined`]); the mixture's
+//!   density is what the path's weight divides by and what multiple importance
+//!   sampling weighs against next-event estimation. The BSDF half keeps the density
+//!   positive wherever the integrand is, so the estimate stays unbiased whatever the
+//!   guide learnt.
 //! - Determinism: the training uses its own fixed seeds and schedule, and every render
 //!   (fresh, resumed, or any shard of one) trains the same tree before rendering, so
 //!   guiding is a function of the scene and the settings, which the render identity
@@ -35,12 +41,10 @@ pub use sdtree::{
 };
 pub use vertex::VertexGuide;
 
-/// Probability of drawing a direction from the guide rather than the BSDF. Fixed at
-/// ½ as in Müller et al. 2017: the path weight `f·cos / (½ p_bsdf + ½ p_guide)` is then
-/// at most twice the BSDF's own, so where the guide has learnt badly (few records,
-/// glossy lobes it cannot resolve) the noise grows by a bounded factor, while where it
-/// has learnt well half the paths follow the light. (Learning the fraction per region,
-/// as their 2019 follow-up does, is not done.)
+/// Probability of drawing a direction from the guide rather than the BSDF where a
+/// region has not learnt its own (the untrained tree, regions with few guided draws):
+/// ½ as in Müller et al. 2017, so that the path weight `f·cos / (½ p_bsdf + ½ p_guide)`
+/// is at most twice the BSDF's own.
 pub const GUIDE_PROBABILITY: f32 = 0.5;
 
 /// How a render is guided: the number of training iterations (iteration `k` takes

@@ -23,18 +23,34 @@ pub const MAX_QUAD_DEPTH: u32 = 20;
 /// most `1 + MAX_QUAD_DEPTH / ρ` nodes (2001): see [`max_nodes`](QuadTree::max_nodes).
 pub const SUBDIVISION_SHARE: f64 = 0.01;
 
-/// One node: the energies of its four quadrants (`x ≥ ½` is bit 0, `y ≥ ½` bit 1) and
-/// their children (0: the quadrant is a leaf; the root, node 0, is nobody's child).
+/// One node: the energies of its four quadrants (`x ≥ ½` is bit 0, `y ≥ ½` bit 1),
+/// their children (0: the quadrant is a leaf; the root, node 0, is nobody's child),
+/// and the factor each quadrant multiplies the density by, `4 · energy / total` (1
+/// when the node is empty), fixed when the tree is built by [`QuadTree::refined`]:
+/// sampling and the density read only these, in `f32` (a division per level less),
+/// while deposits add to the energies, which the next refinement reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct QuadNode {
     energy: [f64; 4],
     child: [u32; 4],
+    factor: [f32; 4],
 }
 
 const EMPTY_NODE: QuadNode = QuadNode {
     energy: [0.0; 4],
     child: [0; 4],
+    factor: [1.0; 4],
 };
+
+/// The density factors of a node with quadrant energies `e` (see [`QuadNode`]).
+fn factors(e: [f64; 4]) -> [f32; 4] {
+    let total: f64 = e.iter().sum();
+    if total > 0.0 {
+        e.map(|q| (4.0 * q / total) as f32)
+    } else {
+        [1.0; 4]
+    }
+}
 
 /// A directional distribution over the sphere (see the module notes).
 #[derive(Clone, Debug, PartialEq)]
@@ -62,12 +78,12 @@ fn quadrant(p: Vec2) -> (usize, Vec2) {
 
 const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
-/// The probability of the first of two parts with energies `a` and `b` (even when
-/// both are empty, which only rounding could lead to).
+/// The probability of the first of two parts of weights `a` and `b` (even when both
+/// are empty, which only rounding could lead to).
 #[inline]
-fn share(a: f64, b: f64) -> f32 {
+fn share(a: f32, b: f32) -> f32 {
     if a + b > 0.0 {
-        (a / (a + b)) as f32
+        a / (a + b)
     } else {
         0.5
     }
@@ -90,8 +106,10 @@ fn choose_second(u: &mut f32, p_first: f32) -> bool {
 #[inline]
 pub fn direction_to_square(d: Vec3) -> Vec2 {
     let u = ((d.z + 1.0) * 0.5).clamp(0.0, ONE_BELOW);
-    let phi = d.y.atan2(d.x);
-    let v = (phi * (0.5 * FRAC_1_PI)).rem_euclid(1.0).min(ONE_BELOW);
+    // atan2 is within [-π, π], so one turn added to negative angles is the
+    // remainder (without the call to fmodf that `rem_euclid` makes).
+    let turns = d.y.atan2(d.x) * (0.5 * FRAC_1_PI);
+    let v = if turns < 0.0 { turns + 1.0 } else { turns }.min(ONE_BELOW);
     Vec2::new(u, v)
 }
 
@@ -216,20 +234,18 @@ impl QuadTree {
         }
     }
 
-    /// Density per unit area of the square at `p`.
+    /// Density per unit area of the square at `p` (of the tree as last refined:
+    /// deposits since then count from the next refinement on).
     #[inline]
     pub fn square_pdf(&self, mut p: Vec2) -> f32 {
-        let mut density = 1.0f64;
+        let mut density = 1.0f32;
         let mut node = 0usize;
         loop {
             let n = &self.nodes[node];
-            let total: f64 = n.energy.iter().sum();
             let (q, local) = quadrant(p);
-            if total > 0.0 {
-                density *= 4.0 * n.energy[q] / total;
-            }
+            density *= n.factor[q];
             match n.child[q] {
-                0 => return density as f32,
+                0 => return density,
                 _ if density == 0.0 => return 0.0,
                 c => (node, p) = (c as usize, local),
             }
@@ -244,17 +260,11 @@ impl QuadTree {
         let (mut origin, mut size) = (Vec2::ZERO, 1.0f32);
         let mut node = 0usize;
         loop {
-            let e = self.nodes[node].energy;
-            let (right, top);
-            if e.iter().sum::<f64>() > 0.0 {
-                right = choose_second(&mut u.x, share(e[0] + e[2], e[1] + e[3]));
-                let (bottom_e, top_e) = if right { (e[1], e[3]) } else { (e[0], e[2]) };
-                top = choose_second(&mut u.y, share(bottom_e, top_e));
-                u = u.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
-            } else {
-                // No energy below: uniform over this cell.
-                return (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
-            }
+            let f = self.nodes[node].factor;
+            let right = choose_second(&mut u.x, share(f[0] + f[2], f[1] + f[3]));
+            let (bottom_f, top_f) = if right { (f[1], f[3]) } else { (f[0], f[2]) };
+            let top = choose_second(&mut u.y, share(bottom_f, top_f));
+            u = u.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
             let q = usize::from(right) | usize::from(top) << 1;
             size *= 0.5;
             origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;
@@ -299,7 +309,7 @@ impl QuadTree {
         let mut out = QuadTree {
             nodes: vec![QuadNode {
                 energy: self.nodes[0].energy,
-                child: [0; 4],
+                ..EMPTY_NODE
             }],
         };
         // (node in `out`, node in `self` or none, depth of `out`'s node)
@@ -321,11 +331,14 @@ impl QuadTree {
                 let index = out.nodes.len();
                 out.nodes.push(QuadNode {
                     energy,
-                    child: [0; 4],
+                    ..EMPTY_NODE
                 });
                 out.nodes[new].child[q] = index as u32;
                 stack.push((index, old_child, depth + 1));
             }
+        }
+        for n in &mut out.nodes {
+            n.factor = factors(n.energy);
         }
         out
     }

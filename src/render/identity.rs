@@ -71,12 +71,14 @@ pub fn identity(
         pairs.insert(5, ("light-sampler", name.to_owned()));
     }
     // Only guided renders name their guide, so that unguided checkpoints and shards
-    // made before guiding existed keep their identity.
+    // made before guiding existed keep their identity; the guide's name changes when
+    // what a guided sample computes does (not ALGORITHM_VERSION, which unguided
+    // renders share: theirs did not change).
     let guiding = settings.guiding.map(|g| {
         (
             "guiding",
             format!(
-                "sd-tree, {} iterations, training seed from the render's",
+                "sd-tree 2 (box-filtered, folded, learnt selection), {} iterations, training seed from the render's",
                 g.iterations
             ),
         )

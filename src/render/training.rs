@@ -21,14 +21,15 @@ use crate::scene::Camera;
 /// Mixed into the render's seed so that training samples are not the render's.
 const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 
-/// Records (28 bytes each) held at once while an iteration's tiles wait to be folded
-/// into the tree, as far as there are more tiles than workers: 4M, about 112 MB.
-const RECORDS_PER_BATCH: usize = 4 << 20;
+/// Records (48 bytes each: a guided draw carries its mixture's densities) held at
+/// once while an iteration's tiles wait to be folded into the tree, as far as there
+/// are more tiles than workers: 2.6M, about 126 MB.
+const RECORDS_PER_BATCH: usize = 5 << 19;
 
 /// Tiles rendered before their records are folded in: as many as fit
 /// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
 /// and its light sample), at most 64, but at least one per worker. At the last of 10
-/// iterations (512 spp, depth 8) a tile holds up to 59 MB of records, so a batch holds
+/// iterations (512 spp, depth 8) a tile holds up to 101 MB of records, so a batch holds
 /// at most that per worker.
 fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
     let per_path = 2 * max_depth.max(1) as usize;
