@@ -223,27 +223,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     pub fn sample(&self, ray: Ray, rng: &mut Rng, count: &mut RayCount) -> Sample {
         match self.guide {
             None => self.path::<false, NoRecords>(ray, rng, count, &mut NoRecords),
-            Some(_) => self.guided_path(ray, rng, count, &mut NoRecords),
+            Some(_) => self.sample_recorded(ray, rng, count, &mut NoRecords),
         }
     }
 
     /// [`sample`](Self::sample), telling `recorder` what the path finds at each vertex
     /// (the training of a guide, which is always guided, at first by the uniform tree).
-    #[inline]
-    pub fn sample_recorded<R: PathRecorder>(
-        &self,
-        ray: Ray,
-        rng: &mut Rng,
-        count: &mut RayCount,
-        recorder: &mut R,
-    ) -> Sample {
-        self.guided_path(ray, rng, count, recorder)
-    }
-
     /// The guided instantiation of the path loop, kept out of line so that the
     /// unguided one is inlined into the tile loop exactly as before guiding existed.
     #[inline(never)]
-    fn guided_path<R: PathRecorder>(
+    pub fn sample_recorded<R: PathRecorder>(
         &self,
         ray: Ray,
         rng: &mut Rng,
