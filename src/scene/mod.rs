@@ -9,6 +9,7 @@ mod mesh;
 mod normal_maps;
 mod obj;
 mod obj_parallel;
+mod obj_text;
 mod opacity;
 mod tangents;
 mod texture;
