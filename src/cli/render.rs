@@ -30,7 +30,7 @@ use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };
-use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
+use ember::scene::{load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene};
 
 /// clap's ranges take `i64`.
 const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
@@ -102,6 +102,13 @@ pub struct RenderArgs {
     /// Vertical field of view in degrees, strictly between 0 and 180.
     #[arg(long, default_value_t = 40.0, value_parser = parse_fov)]
     fov: f32,
+    /// Thin-lens depth of field: the lens radius in scene units [default: 0, a pinhole].
+    #[arg(long, value_name = "RADIUS", value_parser = parse_aperture)]
+    aperture: Option<f32>,
+    /// Distance from the eye to the plane in focus, along the view direction
+    /// [default: the distance to --look-at].
+    #[arg(long, value_name = "DISTANCE", value_parser = parse_focus_distance)]
+    focus_distance: Option<f32>,
     /// Radiance of a uniform sky behind the scene, R,G,B [default: 0,0,0, or 1,1,1
     /// when the scene has no emissive material, so that it is not rendered black].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "env")]
@@ -210,6 +217,7 @@ struct CameraRequest {
     look_at: Option<Vec3>,
     up: Vec3,
     fov: f32,
+    lens: Lens,
 }
 
 /// Everything `ember render` was asked to do, mapped from the flags once.
@@ -286,6 +294,10 @@ impl RenderPlan {
                 look_at: args.look_at,
                 up: args.up,
                 fov: args.fov,
+                lens: Lens {
+                    aperture_radius: args.aperture.unwrap_or(0.0),
+                    focus_distance: args.focus_distance,
+                },
             },
             background: args.background,
             env: args.env.map(|path| EnvRequest {
@@ -427,6 +439,20 @@ pub fn parse_aov(s: &str) -> Result<Aov, String> {
     })
 }
 
+fn parse_aperture(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a lens radius ≥ 0")),
+    }
+}
+
+fn parse_focus_distance(s: &str) -> Result<f32, String> {
+    match s.trim().parse::<f32>() {
+        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
+        _ => Err(format!("{s:?} is not a distance > 0")),
+    }
+}
+
 fn parse_degrees(s: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
         Ok(v) if v.is_finite() => Ok(v),
@@ -461,6 +487,7 @@ fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         look_at: request.look_at.unwrap_or(framing.look_at),
         up: request.up,
         vfov_degrees: request.fov,
+        lens: request.lens,
     };
     camera_settings
         .validate()

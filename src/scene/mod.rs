@@ -16,7 +16,7 @@ mod texture;
 mod textures;
 
 pub use alpha::AlphaMap;
-pub use camera::{Camera, CameraSettings};
+pub use camera::{Camera, CameraSettings, Lens};
 pub use environment::{Environment, SkySample};
 pub use material::{
     alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
