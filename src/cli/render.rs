@@ -30,7 +30,10 @@ use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };
-use ember::scene::{load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene};
+use super::scene_file::{is_scene_file, render_args};
+use ember::scene::{
+    load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene, SceneFile,
+};
 
 /// clap's ranges take `i64`.
 const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
@@ -38,8 +41,13 @@ const MAX_SPP: i64 = ember::limits::MAX_SPP as i64;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// The OBJ scene (its MTL libraries and textures are read from beside it).
+    /// The OBJ scene (its MTL libraries and textures are read from beside it), or a
+    /// scene file (.toml: OBJs with transforms and instances, cameras, environment,
+    /// settings; see the README), whose settings these flags override.
     scene: PathBuf,
+    /// With a scene file: the camera of its [camera.NAME] table to render through.
+    #[arg(long, value_name = "NAME")]
+    camera: Option<String>,
     /// Output image; the extension picks the format: .png, .exr or .hdr
     /// [default: the scene's name with .png, in the current directory]
     #[arg(short, long)]
@@ -223,6 +231,8 @@ struct CameraRequest {
 /// Everything `ember render` was asked to do, mapped from the flags once.
 struct RenderPlan {
     scene: PathBuf,
+    /// The scene file, when `scene` is one.
+    scene_file: Option<SceneFile>,
     /// The image, or with `--shard` the shard file.
     output: PathBuf,
     /// Where checkpoints go (the shard file itself for a shard).
@@ -270,6 +280,7 @@ impl RenderPlan {
         aovs.dedup();
         RenderPlan {
             scene: args.scene,
+            scene_file: None,
             output,
             checkpoint,
             checkpoint_every: args.checkpoint_every.map(Duration::from_secs_f64),
@@ -470,7 +481,10 @@ struct LoadedScene {
 }
 
 fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
-    let (mut scene, report) = load_obj(&plan.scene)?;
+    let (mut scene, report) = match &plan.scene_file {
+        Some(file) => file.load_scene()?,
+        None => load_obj(&plan.scene)?,
+    };
     let unlit = scene.emitters.is_empty() && plan.background.is_none() && plan.env.is_none();
     scene.sky = match (&plan.env, plan.background) {
         (Some(env), _) => Some(Environment::load(&env.path, env.scale, env.rotate)?),
@@ -503,9 +517,21 @@ fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     })
 }
 
-pub fn run(args: RenderArgs) -> Result<ExitCode> {
+/// `ember render`; `user` holds the command line's arguments after `render`, which a
+/// scene file's settings go before.
+pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     let started = Instant::now();
-    let plan = RenderPlan::from_args(args);
+    let (args, scene_file) = if is_scene_file(&args.scene) {
+        let file = SceneFile::read(&args.scene)?;
+        (render_args(&file, user)?, Some(file))
+    } else {
+        if args.camera.is_some() {
+            bail!("--camera chooses a camera of a scene file (.toml); {} is not one", args.scene.display());
+        }
+        (args, None)
+    };
+    let mut plan = RenderPlan::from_args(args);
+    plan.scene_file = scene_file;
     plan.check()?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = plan.threads {
