@@ -14,6 +14,7 @@ use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::scene_file::{is_scene_file, render_args};
 use super::{
     parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
     ToneArgs,
@@ -30,7 +31,6 @@ use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };
-use super::scene_file::{is_scene_file, render_args};
 use ember::scene::{
     load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene, SceneFile,
 };
@@ -526,7 +526,10 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
         (render_args(&file, user)?, Some(file))
     } else {
         if args.camera.is_some() {
-            bail!("--camera chooses a camera of a scene file (.toml); {} is not one", args.scene.display());
+            bail!(
+                "--camera chooses a camera of a scene file (.toml); {} is not one",
+                args.scene.display()
+            );
         }
         (args, None)
     };

@@ -21,7 +21,8 @@ const RUN_ONLY: [&str; 5] = ["output", "checkpoint", "resume", "shard", "help"];
 
 /// Whether `ember render` was given a scene file rather than an OBJ.
 pub fn is_scene_file(path: &std::path::Path) -> bool {
-    path.extension().is_some_and(|e| e.eq_ignore_ascii_case("toml"))
+    path.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
 }
 
 fn render_command() -> Command {
@@ -54,7 +55,9 @@ pub fn render_args(file: &SceneFile, user: &[OsString]) -> Result<RenderArgs> {
             } else {
                 format!("unknown setting `{key}` (the keys of [render] are ember render's flags)")
             };
-            return Err(file.error(setting.span.clone(), &format!("render.{key}"), &message).into());
+            return Err(file
+                .error(setting.span.clone(), &format!("render.{key}"), &message)
+                .into());
         }
         add(setting, "render", &mut flags)?;
     }
@@ -86,19 +89,41 @@ fn only_keys(file: &SceneFile, setting: &Setting, table: &str, keys: &[&str]) ->
     if keys.contains(&setting.key.as_str()) {
         return Ok(());
     }
-    let message = format!("unknown key `{}` (the keys of [{table}] are {})", setting.key, keys.join(", "));
-    Err(file.error(setting.span.clone(), &format!("{table}.{}", setting.key), &message).into())
+    let message = format!(
+        "unknown key `{}` (the keys of [{table}] are {})",
+        setting.key,
+        keys.join(", ")
+    );
+    Err(file
+        .error(
+            setting.span.clone(),
+            &format!("{table}.{}", setting.key),
+            &message,
+        )
+        .into())
 }
 
 /// `--camera NAME`, else `[render] camera = "NAME"`, else the file's only camera.
-fn chosen_camera(file: &SceneFile, given: &ArgMatches, render: &[Setting]) -> Result<Option<String>> {
+fn chosen_camera(
+    file: &SceneFile,
+    given: &ArgMatches,
+    render: &[Setting],
+) -> Result<Option<String>> {
     let names: Vec<&str> = file.cameras.keys().map(String::as_str).collect();
     let from_file = render.iter().find(|s| s.key == "camera");
     let name = match (given.get_one::<String>("camera"), from_file) {
         (Some(name), _) => name.clone(),
         (None, Some(setting)) => match &setting.value {
             toml::Value::String(name) => name.clone(),
-            _ => return Err(file.error(setting.span.clone(), "render.camera", "the name of a [camera.NAME] table").into()),
+            _ => {
+                return Err(file
+                    .error(
+                        setting.span.clone(),
+                        "render.camera",
+                        "the name of a [camera.NAME] table",
+                    )
+                    .into())
+            }
         },
         (None, None) if names.len() <= 1 => return Ok(names.first().map(|n| n.to_string())),
         (None, None) => bail!(
@@ -108,15 +133,26 @@ fn chosen_camera(file: &SceneFile, given: &ArgMatches, render: &[Setting]) -> Re
         ),
     };
     if !file.cameras.contains_key(&name) {
-        let what = if names.is_empty() { "none".to_string() } else { names.join(", ") };
-        bail!("{} has no camera {name:?} (its cameras: {what})", file.path.display());
+        let what = if names.is_empty() {
+            "none".to_string()
+        } else {
+            names.join(", ")
+        };
+        bail!(
+            "{} has no camera {name:?} (its cameras: {what})",
+            file.path.display()
+        );
     }
     Ok(Some(name))
 }
 
 /// The command-line arguments of one setting: `--key=value`, `--key` for `true`,
 /// nothing for `false`, lists comma-separated; `env` resolved against the file.
-fn flag_args(file: &SceneFile, setting: &Setting, section: &str) -> Result<Vec<String>, SceneFileError> {
+fn flag_args(
+    file: &SceneFile,
+    setting: &Setting,
+    section: &str,
+) -> Result<Vec<String>, SceneFileError> {
     let key = &setting.key;
     let scalar = |v: &toml::Value| match v {
         toml::Value::String(s) => Some(s.clone()),
@@ -134,7 +170,9 @@ fn flag_args(file: &SceneFile, setting: &Setting, section: &str) -> Result<Vec<S
         toml::Value::Boolean(false) => return Ok(Vec::new()),
         toml::Value::Array(items) => {
             let parts: Option<Vec<String>> = items.iter().map(scalar).collect();
-            parts.ok_or_else(|| bad("a list of numbers or names"))?.join(",")
+            parts
+                .ok_or_else(|| bad("a list of numbers or names"))?
+                .join(",")
         }
         v => scalar(v).ok_or_else(|| bad("a number, a string, true/false or a list"))?,
     };
@@ -152,19 +190,35 @@ fn flag_args(file: &SceneFile, setting: &Setting, section: &str) -> Result<Vec<S
 
 /// Parses one setting's flag alone (beside a placeholder scene), so that a bad value
 /// is reported at its place in the file with the flag parser's own words.
-fn check_alone(file: &SceneFile, setting: &Setting, section: &str, args: &[String]) -> Result<(), SceneFileError> {
+fn check_alone(
+    file: &SceneFile,
+    setting: &Setting,
+    section: &str,
+    args: &[String],
+) -> Result<(), SceneFileError> {
     if args.is_empty() {
         return Ok(());
     }
-    let argv = ["render", "scene.obj"].into_iter().map(String::from).chain(args.iter().cloned());
+    let argv = ["render", "scene.obj"]
+        .into_iter()
+        .map(String::from)
+        .chain(args.iter().cloned());
     // Flags that need another (--env-scale needs --env) are checked for their value only.
     match render_command().try_get_matches_from(argv) {
         Ok(_) => Ok(()),
         Err(e) if e.kind() == clap::error::ErrorKind::MissingRequiredArgument => Ok(()),
         Err(e) => {
             let text = e.render().to_string();
-            let first = text.lines().next().unwrap_or("invalid value").trim_start_matches("error: ");
-            Err(file.error(setting.span.clone(), &format!("{section}.{}", setting.key), first))
+            let first = text
+                .lines()
+                .next()
+                .unwrap_or("invalid value")
+                .trim_start_matches("error: ");
+            Err(file.error(
+                setting.span.clone(),
+                &format!("{section}.{}", setting.key),
+                first,
+            ))
         }
     }
 }

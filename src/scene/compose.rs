@@ -41,7 +41,13 @@ pub fn compose(placements: &[Placement<'_>]) -> Scene {
             texture: textures.len() as u32,
             alpha: alpha_maps.len() as u32,
         };
-        append_mesh(&mut mesh, &scene.mesh, &placement.transform, offsets.material, (uvs, normals));
+        append_mesh(
+            &mut mesh,
+            &scene.mesh,
+            &placement.transform,
+            offsets.material,
+            (uvs, normals),
+        );
         materials.extend(scene.materials.iter().map(|m| offsets.material_of(m)));
         textures.extend(scene.textures.iter().map(Arc::clone));
         alpha_maps.extend(scene.alpha_maps.iter().map(Arc::clone));
@@ -106,10 +112,15 @@ fn append_mesh(
         for (t, tri) in part.triangles.iter().enumerate() {
             let base = mesh.positions.len() as u32;
             for (k, &i) in tri.iter().enumerate() {
-                mesh.positions.push(transform.transform_point3(part.positions[i as usize]));
+                mesh.positions
+                    .push(transform.transform_point3(part.positions[i as usize]));
                 mesh.uvs.push([Vec2::ZERO, Vec2::X, Vec2::Y][k]);
                 if normals {
-                    mesh.normals.push(part.normals.get(i as usize).map_or(Vec3::ZERO, transform_normal));
+                    mesh.normals.push(
+                        part.normals
+                            .get(i as usize)
+                            .map_or(Vec3::ZERO, transform_normal),
+                    );
                 }
             }
             mesh.triangles.push(corners([base, base + 1, base + 2]));
@@ -118,8 +129,11 @@ fn append_mesh(
         return;
     }
     let base = mesh.positions.len() as u32;
-    mesh.positions
-        .extend(part.positions.iter().map(|&p| transform.transform_point3(p)));
+    mesh.positions.extend(
+        part.positions
+            .iter()
+            .map(|&p| transform.transform_point3(p)),
+    );
     if uvs {
         mesh.uvs.extend_from_slice(&part.uvs);
     }
@@ -127,7 +141,8 @@ fn append_mesh(
         if part.normals.is_empty() {
             mesh.normals.resize(mesh.positions.len(), Vec3::ZERO);
         } else {
-            mesh.normals.extend(part.normals.iter().map(transform_normal));
+            mesh.normals
+                .extend(part.normals.iter().map(transform_normal));
         }
     }
     mesh.triangles

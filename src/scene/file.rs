@@ -144,7 +144,11 @@ impl SceneFile {
         };
         let document: Document = toml::from_str(&file.text).map_err(|e| {
             let span = e.span().unwrap_or(0..0);
-            file.error(span.clone(), &file.key_of(e.message(), span.start), e.message())
+            file.error(
+                span.clone(),
+                &file.key_of(e.message(), span.start),
+                e.message(),
+            )
         })?;
         let settings = |table: Table| -> Vec<Setting> {
             table
@@ -171,19 +175,33 @@ impl SceneFile {
                 return Err(file.error(span, "obj", "an [[obj]] needs file = \"PATH.obj\""));
             };
             if let Some(obj) = &entry.obj {
-                return Err(file.error(obj.span(), "obj.obj", "an [[obj]] names its file; `obj =` belongs to an [[instance]]"));
+                return Err(file.error(
+                    obj.span(),
+                    "obj.obj",
+                    "an [[obj]] names its file; `obj =` belongs to an [[instance]]",
+                ));
             }
             let name = entry.name.as_ref().map_or_else(
-                || Path::new(file_name.get_ref()).file_stem().map_or(String::new(), |s| s.to_string_lossy().into_owned()),
+                || {
+                    Path::new(file_name.get_ref())
+                        .file_stem()
+                        .map_or(String::new(), |s| s.to_string_lossy().into_owned())
+                },
                 |n| n.get_ref().clone(),
             );
             if let Some(other) = file.objs.iter().find(|o| o.name == name) {
                 let at = entry.name.as_ref().map_or(file_name.span(), Spanned::span);
-                let message = format!("a second OBJ named {name:?} (the first is {}): give each a distinct name", other.path.display());
+                let message = format!(
+                    "a second OBJ named {name:?} (the first is {}): give each a distinct name",
+                    other.path.display()
+                );
                 return Err(file.error(at, "obj.name", &message));
             }
             let transform = file.transform(&entry, "obj")?;
-            file.placements.push(Placed { obj: file.objs.len(), transform });
+            file.placements.push(Placed {
+                obj: file.objs.len(),
+                transform,
+            });
             file.objs.push(ObjFile {
                 name,
                 path: folder.join(file_name.get_ref()),
@@ -194,14 +212,26 @@ impl SceneFile {
             let span = entry.span();
             let entry = entry.into_inner();
             if let Some(f) = entry.file.as_ref().or(entry.name.as_ref()) {
-                return Err(file.error(f.span(), "instance", "an [[instance]] places an [[obj]] by its name: obj = \"NAME\""));
+                return Err(file.error(
+                    f.span(),
+                    "instance",
+                    "an [[instance]] places an [[obj]] by its name: obj = \"NAME\"",
+                ));
             }
             let Some(of) = &entry.obj else {
-                return Err(file.error(span, "instance", "an [[instance]] needs obj = \"NAME\" of an [[obj]]"));
+                return Err(file.error(
+                    span,
+                    "instance",
+                    "an [[instance]] needs obj = \"NAME\" of an [[obj]]",
+                ));
             };
             let Some(obj) = file.objs.iter().position(|o| &o.name == of.get_ref()) else {
                 let names: Vec<&str> = file.objs.iter().map(|o| o.name.as_str()).collect();
-                let message = format!("no [[obj]] is named {:?} (there are: {})", of.get_ref(), names.join(", "));
+                let message = format!(
+                    "no [[obj]] is named {:?} (there are: {})",
+                    of.get_ref(),
+                    names.join(", ")
+                );
                 return Err(file.error(of.span(), "instance.obj", &message));
             };
             let transform = file.transform(&entry, "instance")?;
@@ -239,19 +269,33 @@ impl SceneFile {
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
         if let Some(m) = &entry.matrix {
             if trs {
-                return Err(self.error(m.span(), &format!("{table}.matrix"), "give either matrix or translate/rotate/scale, not both"));
+                return Err(self.error(
+                    m.span(),
+                    &format!("{table}.matrix"),
+                    "give either matrix or translate/rotate/scale, not both",
+                ));
             }
             let rows = m.get_ref();
             if !finite(rows.as_flattened()) || rows[3] != [0.0, 0.0, 0.0, 1.0] {
-                return Err(self.error(m.span(), &format!("{table}.matrix"), "an affine 4x4 matrix of finite numbers (rows; the last 0, 0, 0, 1)"));
+                return Err(self.error(
+                    m.span(),
+                    &format!("{table}.matrix"),
+                    "an affine 4x4 matrix of finite numbers (rows; the last 0, 0, 0, 1)",
+                ));
             }
             let affine = Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose());
             if affine.matrix3.determinant().abs() < 1e-12 {
-                return Err(self.error(m.span(), &format!("{table}.matrix"), "the matrix is singular (it flattens the OBJ)"));
+                return Err(self.error(
+                    m.span(),
+                    &format!("{table}.matrix"),
+                    "the matrix is singular (it flattens the OBJ)",
+                ));
             }
             return Ok(affine);
         }
-        let at = |key: &str, v: Range<usize>, message: &str| self.error(v, &format!("{table}.{key}"), message);
+        let at = |key: &str, v: Range<usize>, message: &str| {
+            self.error(v, &format!("{table}.{key}"), message)
+        };
         let translate = entry.translate.as_ref().map_or([0.0; 3], |t| *t.get_ref());
         if let Some(t) = entry.translate.as_ref().filter(|t| !finite(t.get_ref())) {
             return Err(at("translate", t.span(), "must be three finite numbers"));
@@ -262,7 +306,11 @@ impl SceneFile {
                 let r = spanned.get_ref();
                 let axis = Vec3::from(r.axis);
                 if !finite(&r.axis) || !r.degrees.is_finite() || axis.length_squared() < 1e-12 {
-                    return Err(at("rotate", spanned.span(), "needs a finite, non-zero axis and finite degrees"));
+                    return Err(at(
+                        "rotate",
+                        spanned.span(),
+                        "needs a finite, non-zero axis and finite degrees",
+                    ));
                 }
                 Quat::from_axis_angle(axis.normalize(), r.degrees.to_radians())
             }
@@ -275,12 +323,20 @@ impl SceneFile {
                     Scale::Axes(a) => Vec3::from(a),
                 };
                 if !v.is_finite() || v.abs().min_element() == 0.0 {
-                    return Err(at("scale", span, "must be finite and non-zero (negative mirrors)"));
+                    return Err(at(
+                        "scale",
+                        span,
+                        "must be finite and non-zero (negative mirrors)",
+                    ));
                 }
                 v
             }
         };
-        Ok(Affine3A::from_scale_rotation_translation(scale, rotate, Vec3::from(translate)))
+        Ok(Affine3A::from_scale_rotation_translation(
+            scale,
+            rotate,
+            Vec3::from(translate),
+        ))
     }
 
     /// Loads each OBJ once and places it wherever the file says, baked into one scene.
@@ -289,10 +345,12 @@ impl SceneFile {
     pub fn load_scene(&self) -> Result<(Scene, LoadReport), SceneFileError> {
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
-            let scene = load_obj(&obj.path).map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
+            let scene = load_obj(&obj.path)
+                .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
             loaded.push(scene);
         }
-        let identity_once = self.placements.len() == 1 && self.placements[0].transform == Affine3A::IDENTITY;
+        let identity_once =
+            self.placements.len() == 1 && self.placements[0].transform == Affine3A::IDENTITY;
         if identity_once {
             return Ok(loaded.pop().expect("one OBJ"));
         }
@@ -333,7 +391,11 @@ impl SceneFile {
                 (mesh.positions.len() as u64 * 32 + mesh.triangles.len() as u64 * 16) * 2
             })
             .sum();
-        let what = format!("{} placements of {} OBJs", self.placements.len(), self.objs.len());
+        let what = format!(
+            "{} placements of {} OBJs",
+            self.placements.len(),
+            self.objs.len()
+        );
         crate::limits::check_fits(&what, bytes).map_err(|e| self.error(0..0, "instance", &e))
     }
 }
@@ -342,11 +404,18 @@ impl SceneFile {
     /// The key a `toml` error is about: the one its message names (`unknown field
     /// `x``), else the one written before `=` on the error's line, else `(syntax)`.
     fn key_of(&self, message: &str, at: usize) -> String {
-        let is_key = |k: &&str| !k.is_empty() && k.chars().all(|c| c.is_alphanumeric() || c == '-' || c == '_' || c == '.');
+        let is_key = |k: &&str| {
+            !k.is_empty()
+                && k.chars()
+                    .all(|c| c.is_alphanumeric() || c == '-' || c == '_' || c == '.')
+        };
         if let Some(key) = message.split('`').nth(1).filter(is_key) {
             return key.to_owned();
         }
-        let line = self.text[..at.min(self.text.len())].rsplit('\n').next().unwrap_or("");
+        let line = self.text[..at.min(self.text.len())]
+            .rsplit('\n')
+            .next()
+            .unwrap_or("");
         line.split_once('=')
             .map(|(k, _)| k.trim())
             .filter(is_key)
