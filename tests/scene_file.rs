@@ -89,42 +89,25 @@ fn command_line_flags_override_the_file_and_cameras_are_chosen_by_name() {
         ok(&ember(&all, dir.path()));
         std::fs::read(dir.path().join(out)).unwrap()
     };
+    // The same render from the OBJ and flags alone.
+    let flags = |seed: &str, camera: &[&str], out: &str| {
+        let mut args = vec![
+            obj, "--spp", "2", "--seed", seed, "--width", "30", "--height", "20",
+        ];
+        args.extend_from_slice(camera);
+        render(&args, out)
+    };
+    let near = ["--eye", "0,1,3.9", "--look-at", "0,1,0"];
     // The file's own settings and its default camera.
-    let file = render(&[scene], "a.png");
-    let flags = render(
-        &[
-            obj, "--spp", "2", "--seed", "9", "--width", "30", "--height", "20",
-        ]
-        .into_iter()
-        .chain(["--eye", "0,1,3.9", "--look-at", "0,1,0"])
-        .collect::<Vec<_>>(),
-        "b.png",
-    );
-    assert!(file == flags);
+    assert!(render(&[scene], "a.png") == flags("9", &near, "b.png"));
     // The command line's seed and camera win over the file's.
+    let far = ["--eye", "0,1,8", "--look-at", "0,1,0", "--fov", "30"];
     let overridden = render(&[scene, "--seed", "4", "--camera", "far"], "c.png");
-    let flags = render(
-        &[
-            obj, "--spp", "2", "--seed", "4", "--width", "30", "--height", "20",
-        ]
-        .into_iter()
-        .chain(["--eye", "0,1,8", "--look-at", "0,1,0", "--fov", "30"])
-        .collect::<Vec<_>>(),
-        "d.png",
-    );
-    assert!(overridden == flags);
+    assert!(overridden == flags("4", &far, "d.png"));
     // And a single camera flag overrides that key of the chosen camera only.
     let fov = render(&[scene, "--fov", "30"], "e.png");
-    let flags = render(
-        &[
-            obj, "--spp", "2", "--seed", "9", "--width", "30", "--height", "20",
-        ]
-        .into_iter()
-        .chain(["--eye", "0,1,3.9", "--look-at", "0,1,0", "--fov", "30"])
-        .collect::<Vec<_>>(),
-        "f.png",
-    );
-    assert!(fov == flags);
+    let near_30 = ["--eye", "0,1,3.9", "--look-at", "0,1,0", "--fov", "30"];
+    assert!(fov == flags("9", &near_30, "f.png"));
 }
 
 #[test]

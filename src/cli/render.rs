@@ -411,18 +411,20 @@ struct EnvRequest {
     rotate: f32,
 }
 
-fn parse_env_scale(s: &str) -> Result<f32, String> {
+/// A finite number for which `ok` holds, else "`s` is not `what`".
+fn parse_f32(s: &str, ok: impl Fn(f32) -> bool, what: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
+        Ok(v) if v.is_finite() && ok(v) => Ok(v),
+        _ => Err(format!("{s:?} is not {what}")),
     }
 }
 
+fn parse_env_scale(s: &str) -> Result<f32, String> {
+    parse_f32(s, |v| v >= 0.0, "a finite factor ≥ 0")
+}
+
 fn parse_threshold(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a relative error > 0 (e.g. 0.05)")),
-    }
+    parse_f32(s, |v| v > 0.0, "a relative error > 0 (e.g. 0.05)")
 }
 
 /// Refuses, before any work, an image output that cannot be written or cannot hold
@@ -451,24 +453,15 @@ pub fn parse_aov(s: &str) -> Result<Aov, String> {
 }
 
 fn parse_aperture(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a lens radius ≥ 0")),
-    }
+    parse_f32(s, |v| v >= 0.0, "a lens radius ≥ 0")
 }
 
 fn parse_focus_distance(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a distance > 0")),
-    }
+    parse_f32(s, |v| v > 0.0, "a distance > 0")
 }
 
 fn parse_degrees(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(format!("{s:?} is not an angle in degrees")),
-    }
+    parse_f32(s, |_| true, "an angle in degrees")
 }
 
 /// The scene with its sky set, and the camera that frames it.
