@@ -201,3 +201,28 @@ fn every_scene_file_error_is_one_line_with_file_line_column_and_key() {
         assert_file_error(&text, at, key, words);
     }
 }
+
+#[test]
+fn a_cameras_lens_keys_are_the_lens_flags() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(
+        dir.path(),
+        "[camera.dof]\neye = [0, 1, 3.9]\nlook-at = [0, 1, 0]\naperture = 0.1\nfocus-distance = 3\n",
+    );
+    let obj = repo().join("meshes/CornellBox-Original.obj");
+    let mut file = vec!["render", scene.to_str().unwrap(), "-o", "file.png"];
+    file.extend(SMALL);
+    ok(&ember(&file, dir.path()));
+    let mut flags = vec!["render", obj.to_str().unwrap(), "-o", "flags.png"];
+    flags.extend(["--eye", "0,1,3.9", "--look-at", "0,1,0"]);
+    flags.extend(["--aperture", "0.1", "--focus-distance", "3"]);
+    flags.extend(SMALL);
+    ok(&ember(&flags, dir.path()));
+    let mut pinhole = vec!["render", obj.to_str().unwrap(), "-o", "pinhole.png"];
+    pinhole.extend(["--eye", "0,1,3.9", "--look-at", "0,1,0"]);
+    pinhole.extend(SMALL);
+    ok(&ember(&pinhole, dir.path()));
+    let read = |name: &str| std::fs::read(dir.path().join(name)).unwrap();
+    assert!(read("file.png") == read("flags.png"));
+    assert!(read("file.png") != read("pinhole.png"));
+}

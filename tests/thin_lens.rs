@@ -157,3 +157,41 @@ fn a_lens_of_aperture_zero_is_the_pinhole_bit_for_bit() {
     // And an open lens changes the image (the square's edge at depth 3 blurs).
     assert_ne!(bits(&pinhole), bits(&shoot(&built, lens(0.1), 4)));
 }
+
+#[test]
+fn a_lens_is_part_of_the_render_identity_and_a_pinhole_is_not_named() {
+    let built = square_at(3.0, 0.5);
+    let settings = RenderSettings {
+        width: 8,
+        height: 8,
+        spp: 1,
+        max_depth: 1,
+        seed: 0,
+        integrator: IntegratorKind::Mis,
+        light_sampler: Default::default(),
+        adaptive: None,
+        guiding: None,
+    };
+    let id = |lens: Lens| {
+        ember::render::identity(
+            &built.scene,
+            &camera(lens),
+            &settings,
+            ember::accel::AccelKind::Embree,
+        )
+    };
+    let pinhole = id(Lens::PINHOLE);
+    assert!(pinhole.iter().all(|(k, _)| k != "lens"));
+    // Checkpoints of a closed lens resume pinhole renders: it is the same camera.
+    assert_eq!(pinhole, id(lens(0.0)));
+    let open = id(lens(0.1));
+    assert_ne!(pinhole, open);
+    assert_ne!(open, id(lens(0.2)));
+    assert_ne!(
+        open,
+        id(Lens {
+            aperture_radius: 0.1,
+            focus_distance: Some(2.0)
+        })
+    );
+}
