@@ -245,7 +245,7 @@ impl SceneFile {
 
     /// The one-line error at byte range `span` of the file, about `key`.
     pub fn error(&self, span: Range<usize>, key: &str, message: &str) -> SceneFileError {
-        let before = &self.text[..span.start.min(self.text.len())];
+        let before = self.before(span.start);
         let line = before.matches('\n').count() + 1;
         let column = before.rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
         SceneFileError {
@@ -284,7 +284,7 @@ impl SceneFile {
                 ));
             }
             let affine = Affine3A::from_mat4(Mat4::from_cols_array_2d(rows).transpose());
-            if affine.matrix3.determinant().abs() < 1e-12 {
+            if affine.matrix3.determinant() == 0.0 || !affine.inverse().is_finite() {
                 return Err(self.error(
                     m.span(),
                     &format!("{table}.matrix"),
@@ -401,6 +401,15 @@ impl SceneFile {
 }
 
 impl SceneFile {
+    /// The text before byte `at` (or before the character holding it).
+    fn before(&self, at: usize) -> &str {
+        let mut at = at.min(self.text.len());
+        while !self.text.is_char_boundary(at) {
+            at -= 1;
+        }
+        &self.text[..at]
+    }
+
     /// The key a `toml` error is about: the one its message names (`unknown field
     /// `x``), else the one written before `=` on the error's line, else `(syntax)`.
     fn key_of(&self, message: &str, at: usize) -> String {
@@ -412,10 +421,7 @@ impl SceneFile {
         if let Some(key) = message.split('`').nth(1).filter(is_key) {
             return key.to_owned();
         }
-        let line = self.text[..at.min(self.text.len())]
-            .rsplit('\n')
-            .next()
-            .unwrap_or("");
+        let line = self.before(at).rsplit('\n').next().unwrap_or("");
         line.split_once('=')
             .map(|(k, _)| k.trim())
             .filter(is_key)
