@@ -30,7 +30,7 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render an OBJ scene to PNG (sRGB), EXR or HDR (linear).
+    /// Render an OBJ scene or a scene file (.toml) to PNG (sRGB), EXR or HDR (linear).
     Render(RenderArgs),
     /// Merge the shard files of a split render (`render --shard I/N`) into one image.
     Merge(MergeArgs),
@@ -69,7 +69,11 @@ fn main() -> ExitCode {
         }
     };
     let result = match cli.command {
-        Command::Render(args) => cli::render::run(args),
+        Command::Render(args) => {
+            // A scene file's flags are read before the command line's (after `render`).
+            let user: Vec<std::ffi::OsString> = std::env::args_os().skip(2).collect();
+            cli::render::run(args, &user)
+        }
         Command::Merge(args) => cli::merge::run(args),
         Command::Denoise(args) => cli::denoise::run(args).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => cli::bench::run(args).map(|()| ExitCode::SUCCESS),

@@ -185,6 +185,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
         look_at: Vec3::new(0.0, 1.0, 0.0),
         up: Vec3::Y,
         vfov_degrees: 40.0,
+        lens: Default::default(),
     }
     .camera(SIZE, SIZE);
     let render_at = |spp, seed| {

@@ -295,6 +295,7 @@ fn inside_camera(size: u32) -> Camera {
         look_at: Vec3::new(0.0, -0.4, -1.0),
         up: Vec3::Y,
         vfov_degrees: 70.0,
+        lens: Default::default(),
     }
     .camera(size, size)
 }
@@ -439,6 +440,7 @@ fn guiding_is_part_of_the_render_identity() {
         look_at: -Vec3::Z,
         up: Vec3::Y,
         vfov_degrees: 40.0,
+        lens: Default::default(),
     };
     let id = |guiding| {
         let settings = RenderSettings {

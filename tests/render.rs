@@ -22,6 +22,7 @@ fn reference_camera() -> CameraSettings {
         look_at: Vec3::new(0.0, 1.0, 0.0),
         up: Vec3::Y,
         vfov_degrees: 40.0,
+        lens: Default::default(),
     }
 }
 

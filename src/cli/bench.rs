@@ -163,7 +163,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
 
     let table = report::table(&results, &loadings);
     let version = Device::new("")?.info().version;
-    let document = report::to_json(&results, &loadings, &options, &version);
+    let document = report::to_json(
+        &results,
+        &loadings,
+        options.rays,
+        &options.threads,
+        &version,
+    );
     let json = serde_json::to_string_pretty(&document)?;
     if let Some(path) = &args.json_out {
         io::write_atomically(path, json.as_bytes())?;

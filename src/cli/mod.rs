@@ -7,6 +7,7 @@ pub mod denoise;
 pub mod merge;
 pub mod misc;
 pub mod render;
+pub mod scene_file;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;

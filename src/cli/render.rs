@@ -14,6 +14,7 @@ use clap::Args;
 use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
+use super::scene_file::{is_scene_file, render_args};
 use super::{
     parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
     ToneArgs,
@@ -30,7 +31,9 @@ use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };
-use ember::scene::{load_obj, Camera, CameraSettings, Environment, LoadReport, Scene};
+use ember::scene::{
+    load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene, SceneFile,
+};
 
 /// clap's ranges take `i64`.
 const MAX_SIDE: i64 = ember::limits::MAX_IMAGE_SIDE as i64;
@@ -38,8 +41,13 @@ const MAX_SPP: i64 = ember::limits::MAX_SPP as i64;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// The OBJ scene (its MTL libraries and textures are read from beside it).
+    /// The OBJ scene (its MTL libraries and textures are read from beside it), or a
+    /// scene file (.toml: OBJs with transforms and instances, cameras, environment,
+    /// settings; see the README), whose settings these flags override.
     scene: PathBuf,
+    /// With a scene file: the camera of its [camera.NAME] table to render through.
+    #[arg(long, value_name = "NAME")]
+    camera: Option<String>,
     /// Output image; the extension picks the format: .png, .exr or .hdr
     /// [default: the scene's name with .png, in the current directory]
     #[arg(short, long)]
@@ -102,6 +110,13 @@ pub struct RenderArgs {
     /// Vertical field of view in degrees, strictly between 0 and 180.
     #[arg(long, default_value_t = 40.0, value_parser = parse_fov)]
     fov: f32,
+    /// Thin-lens depth of field: the lens radius in scene units [default: 0, a pinhole].
+    #[arg(long, value_name = "RADIUS", value_parser = parse_aperture)]
+    aperture: Option<f32>,
+    /// Distance from the eye to the plane in focus, along the view direction
+    /// [default: the distance to --look-at].
+    #[arg(long, value_name = "DISTANCE", value_parser = parse_focus_distance)]
+    focus_distance: Option<f32>,
     /// Radiance of a uniform sky behind the scene, R,G,B [default: 0,0,0, or 1,1,1
     /// when the scene has no emissive material, so that it is not rendered black].
     #[arg(long, value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "env")]
@@ -210,11 +225,14 @@ struct CameraRequest {
     look_at: Option<Vec3>,
     up: Vec3,
     fov: f32,
+    lens: Lens,
 }
 
 /// Everything `ember render` was asked to do, mapped from the flags once.
 struct RenderPlan {
     scene: PathBuf,
+    /// The scene file, when `scene` is one.
+    scene_file: Option<SceneFile>,
     /// The image, or with `--shard` the shard file.
     output: PathBuf,
     /// Where checkpoints go (the shard file itself for a shard).
@@ -262,6 +280,7 @@ impl RenderPlan {
         aovs.dedup();
         RenderPlan {
             scene: args.scene,
+            scene_file: None,
             output,
             checkpoint,
             checkpoint_every: args.checkpoint_every.map(Duration::from_secs_f64),
@@ -286,6 +305,10 @@ impl RenderPlan {
                 look_at: args.look_at,
                 up: args.up,
                 fov: args.fov,
+                lens: Lens {
+                    aperture_radius: args.aperture.unwrap_or(0.0),
+                    focus_distance: args.focus_distance,
+                },
             },
             background: args.background,
             env: args.env.map(|path| EnvRequest {
@@ -388,18 +411,20 @@ struct EnvRequest {
     rotate: f32,
 }
 
-fn parse_env_scale(s: &str) -> Result<f32, String> {
+/// A finite number for which `ok` holds, else "`s` is not `what`".
+fn parse_f32(s: &str, ok: impl Fn(f32) -> bool, what: &str) -> Result<f32, String> {
     match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v >= 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a finite factor ≥ 0")),
+        Ok(v) if v.is_finite() && ok(v) => Ok(v),
+        _ => Err(format!("{s:?} is not {what}")),
     }
 }
 
+fn parse_env_scale(s: &str) -> Result<f32, String> {
+    parse_f32(s, |v| v >= 0.0, "a finite factor ≥ 0")
+}
+
 fn parse_threshold(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() && v > 0.0 => Ok(v),
-        _ => Err(format!("{s:?} is not a relative error > 0 (e.g. 0.05)")),
-    }
+    parse_f32(s, |v| v > 0.0, "a relative error > 0 (e.g. 0.05)")
 }
 
 /// Refuses, before any work, an image output that cannot be written or cannot hold
@@ -427,11 +452,16 @@ pub fn parse_aov(s: &str) -> Result<Aov, String> {
     })
 }
 
+fn parse_aperture(s: &str) -> Result<f32, String> {
+    parse_f32(s, |v| v >= 0.0, "a lens radius ≥ 0")
+}
+
+fn parse_focus_distance(s: &str) -> Result<f32, String> {
+    parse_f32(s, |v| v > 0.0, "a distance > 0")
+}
+
 fn parse_degrees(s: &str) -> Result<f32, String> {
-    match s.trim().parse::<f32>() {
-        Ok(v) if v.is_finite() => Ok(v),
-        _ => Err(format!("{s:?} is not an angle in degrees")),
-    }
+    parse_f32(s, |_| true, "an angle in degrees")
 }
 
 /// The scene with its sky set, and the camera that frames it.
@@ -444,7 +474,10 @@ struct LoadedScene {
 }
 
 fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
-    let (mut scene, report) = load_obj(&plan.scene)?;
+    let (mut scene, report) = match &plan.scene_file {
+        Some(file) => file.load_scene()?,
+        None => load_obj(&plan.scene)?,
+    };
     let unlit = scene.emitters.is_empty() && plan.background.is_none() && plan.env.is_none();
     scene.sky = match (&plan.env, plan.background) {
         (Some(env), _) => Some(Environment::load(&env.path, env.scale, env.rotate)?),
@@ -461,6 +494,7 @@ fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         look_at: request.look_at.unwrap_or(framing.look_at),
         up: request.up,
         vfov_degrees: request.fov,
+        lens: request.lens,
     };
     camera_settings
         .validate()
@@ -476,9 +510,24 @@ fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     })
 }
 
-pub fn run(args: RenderArgs) -> Result<ExitCode> {
+/// `ember render`; `user` holds the command line's arguments after `render`, which a
+/// scene file's settings go before.
+pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     let started = Instant::now();
-    let plan = RenderPlan::from_args(args);
+    let (args, scene_file) = if is_scene_file(&args.scene) {
+        let file = SceneFile::read(&args.scene)?;
+        (render_args(&file, user)?, Some(file))
+    } else {
+        if args.camera.is_some() {
+            bail!(
+                "--camera chooses a camera of a scene file (.toml); {} is not one",
+                args.scene.display()
+            );
+        }
+        (args, None)
+    };
+    let mut plan = RenderPlan::from_args(args);
+    plan.scene_file = scene_file;
     plan.check()?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = plan.threads {

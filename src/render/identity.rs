@@ -66,6 +66,20 @@ pub fn identity(
         ("algorithm", ALGORITHM_VERSION.to_string()),
         ("scene", format!("{:016x}", scene_hash(scene))),
     ];
+    // Only a lens is named, so that pinhole renders keep their identity.
+    if !camera.lens.is_pinhole() {
+        let focus = camera
+            .lens
+            .focus_distance
+            .map_or("look-at".into(), |d| format!("{d:?}"));
+        pairs.push((
+            "lens",
+            format!(
+                "aperture radius {:?}, focus {focus}",
+                camera.lens.aperture_radius
+            ),
+        ));
+    }
     if let Some(name) = light_sampler {
         // After the integrator, as where it was first added.
         pairs.insert(5, ("light-sampler", name.to_owned()));

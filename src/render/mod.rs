@@ -478,7 +478,16 @@ fn camera_ray(
 ) -> (crate::accel::Ray, Rng) {
     let mut rng = Rng::for_pixel_sample(seed, pixel, u64::from(sample));
     let (dx, dy) = rng.pair();
-    (camera.ray(x as f32 + dx, y as f32 + dy), rng)
+    let (px, py) = (x as f32 + dx, y as f32 + dy);
+    // A lens takes the rest of the camera's stratified set (the pixel position and
+    // the lens point are stratified jointly); a pinhole draws nothing more, so its
+    // images are those of versions without lenses.
+    let ray = if camera.has_lens() {
+        camera.lens_ray(px, py, rng.pair())
+    } else {
+        camera.ray(px, py)
+    };
+    (ray, rng)
 }
 
 impl<A: Accel> Passes<'_, A> {

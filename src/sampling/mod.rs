@@ -38,3 +38,22 @@ pub fn uniform_triangle(u1: f32, u2: f32) -> (f32, f32) {
     let s = u1.sqrt();
     (s * (1.0 - u2), s * u2)
 }
+
+/// A uniform point on the unit disk (Shirley and Chiu's concentric map, which keeps
+/// strata of the square as compact regions of the disk): density `1 / π`.
+#[inline]
+pub fn concentric_disk(u1: f32, u2: f32) -> (f32, f32) {
+    let (a, b) = (2.0 * u1 - 1.0, 2.0 * u2 - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, phi) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (
+            b,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+        )
+    };
+    (r * phi.cos(), r * phi.sin())
+}

@@ -1,4 +1,5 @@
-//! The pinhole camera: eye, look-at point, up vector and vertical field of view.
+//! The camera: eye, look-at point, up vector and vertical field of view, through a
+//! pinhole or a thin lens (an aperture radius and a focus distance).
 
 use glam::Vec3;
 
@@ -13,6 +14,38 @@ pub struct CameraSettings {
     pub up: Vec3,
     /// Vertical field of view in degrees, in (0, 180).
     pub vfov_degrees: f32,
+    /// The lens: a pinhole, or a thin lens with depth of field.
+    pub lens: Lens,
+}
+
+/// A thin lens: rays leave a disk of `aperture_radius` (world units) about the eye,
+/// centred on the view direction, and meet again on the plane `focus_distance` in
+/// front of the eye, so that plane is sharp and a point at depth `z` spreads over a
+/// disk of radius `aperture_radius · |1 − focus_distance / z|` measured on that plane
+/// (the thin-lens circle of confusion). An aperture of 0 is the pinhole.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lens {
+    pub aperture_radius: f32,
+    /// Distance from the eye to the plane in focus, along the view direction;
+    /// `None`: the distance to the look-at point.
+    pub focus_distance: Option<f32>,
+}
+
+impl Lens {
+    pub const PINHOLE: Lens = Lens {
+        aperture_radius: 0.0,
+        focus_distance: None,
+    };
+
+    pub fn is_pinhole(&self) -> bool {
+        self.aperture_radius == 0.0
+    }
+}
+
+impl Default for Lens {
+    fn default() -> Self {
+        Lens::PINHOLE
+    }
 }
 
 /// A camera ready to generate rays for one image size.
@@ -26,6 +59,11 @@ pub struct Camera {
     up: Vec3,
     width: f32,
     height: f32,
+    /// The lens disk's axes (image-right and image-up, scaled by the aperture
+    /// radius) and the focus distance; zero axes for a pinhole.
+    lens_right: Vec3,
+    lens_up: Vec3,
+    focus_distance: f32,
 }
 
 impl CameraSettings {
@@ -43,6 +81,7 @@ impl CameraSettings {
             look_at: center,
             up: Vec3::Y,
             vfov_degrees,
+            lens: Lens::PINHOLE,
         }
     }
 
@@ -66,6 +105,20 @@ impl CameraSettings {
         if forward.normalize().cross(self.up).length_squared() < 1e-10 {
             return Err("camera up vector is parallel to the view direction".into());
         }
+        let lens = self.lens;
+        if !(lens.aperture_radius.is_finite() && lens.aperture_radius >= 0.0) {
+            return Err(format!(
+                "aperture radius must be finite and at least 0, got {}",
+                lens.aperture_radius
+            ));
+        }
+        if let Some(d) = lens.focus_distance {
+            if !(d.is_finite() && d > 0.0) {
+                return Err(format!(
+                    "focus distance must be finite and above 0, got {d}"
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -78,6 +131,10 @@ impl CameraSettings {
         let up = right.cross(forward);
         let tan_half = (0.5 * self.vfov_degrees).to_radians().tan();
         let aspect = width as f32 / height as f32;
+        let focus_distance = self
+            .lens
+            .focus_distance
+            .unwrap_or_else(|| (self.look_at - self.eye).length());
         Camera {
             eye: self.eye,
             forward,
@@ -85,6 +142,9 @@ impl CameraSettings {
             up: up * tan_half,
             width: width as f32,
             height: height as f32,
+            lens_right: right * self.lens.aperture_radius,
+            lens_up: up * self.lens.aperture_radius,
+            focus_distance,
         }
     }
 }
@@ -98,5 +158,27 @@ impl Camera {
         let sy = 1.0 - 2.0 * y / self.height;
         let dir = (self.forward + sx * self.right + sy * self.up).normalize();
         Ray::new(self.eye, dir)
+    }
+
+    /// Whether rays come from a lens disk (then [`lens_ray`](Self::lens_ray) takes
+    /// two more random numbers) rather than from the eye alone.
+    #[inline]
+    pub fn has_lens(&self) -> bool {
+        self.lens_right != Vec3::ZERO
+    }
+
+    /// The ray through image position `(x, y)` from the point `lens` (two uniforms
+    /// in `[0, 1)`, mapped to the disk area-uniformly) of the thin lens: it passes
+    /// where the pinhole ray meets the plane in focus.
+    #[inline]
+    pub fn lens_ray(&self, x: f32, y: f32, lens: (f32, f32)) -> Ray {
+        let sx = 2.0 * x / self.width - 1.0;
+        let sy = 1.0 - 2.0 * y / self.height;
+        // The pinhole direction has unit depth along `forward`.
+        let focus =
+            self.eye + self.focus_distance * (self.forward + sx * self.right + sy * self.up);
+        let (dx, dy) = crate::sampling::concentric_disk(lens.0, lens.1);
+        let origin = self.eye + dx * self.lens_right + dy * self.lens_up;
+        Ray::new(origin, (focus - origin).normalize())
     }
 }

@@ -3,20 +3,25 @@
 
 mod alpha;
 mod camera;
+mod compose;
 mod environment;
+mod file;
 mod material;
 mod mesh;
 mod normal_maps;
 mod obj;
 mod obj_parallel;
+mod obj_text;
 mod opacity;
 mod tangents;
 mod texture;
 mod textures;
 
 pub use alpha::AlphaMap;
-pub use camera::{Camera, CameraSettings};
+pub use camera::{Camera, CameraSettings, Lens};
+pub use compose::{compose, mirrors, Placement};
 pub use environment::{Environment, SkySample};
+pub use file::{ObjFile, Placed, SceneFile, SceneFileError, Setting};
 pub use material::{
     alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
 };

@@ -645,7 +645,7 @@ pub fn check_against_tobj(obj: &str, mtl: &HashMap<String, String>) -> Result<bo
             .get(&*name.to_string_lossy())
             .ok_or(tobj::LoadError::OpenFileFailed)?;
         // tobj panics on short colours; ember expands or refuses them first.
-        let text = super::obj::normalize_mtl_colours(text)
+        let text = super::obj_text::normalize_mtl_colours(text)
             .map_err(|_| tobj::LoadError::MaterialParseError)?;
         tobj::load_mtl_buf(&mut text.as_bytes())
     };
@@ -659,7 +659,7 @@ pub fn check_against_tobj(obj: &str, mtl: &HashMap<String, String>) -> Result<bo
         ignore_lines: true,
     };
     // ember's own comment stripping, as it runs before tobj.
-    let stripped = super::obj::strip_comments(obj);
+    let stripped = super::obj_text::strip_comments(obj);
     let theirs = tobj::load_obj_buf(&mut stripped.as_bytes(), &options, load_mtl);
     let (ours, theirs) = match (ours, theirs) {
         (Ok(ours), Ok(theirs)) => (ours, theirs),

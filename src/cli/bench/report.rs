@@ -5,8 +5,6 @@ use std::fmt::Write;
 
 use serde_json::{json, Value};
 
-use super::measure::BenchOptions;
-
 /// What a measurement measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -142,14 +140,15 @@ impl Loading {
 pub fn to_json(
     results: &[Measurement],
     loadings: &[Loading],
-    options: &BenchOptions,
+    rays_per_set: usize,
+    threads: &[usize],
     embree_version: &str,
 ) -> Value {
     json!({
         "ember_version": env!("CARGO_PKG_VERSION"),
         "embree_version": embree_version,
-        "rays_per_set": options.rays,
-        "threads": options.threads,
+        "rays_per_set": rays_per_set,
+        "threads": threads,
         "loading": loadings.iter().map(Loading::to_json).collect::<Vec<_>>(),
         "results": results.iter().map(Measurement::to_json).collect::<Vec<_>>(),
     })
