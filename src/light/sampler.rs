@@ -37,18 +37,22 @@ use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
 /// How an emitter and a point on it are chosen for a light sample.
 ///
-/// The alias table with area sampling is the default because it was measured the more
-/// efficient on every full global-illumination render tried (issue 20): the BVH lowers
-/// the error at equal samples (1.8× on `meshes/many-light-room.obj`, 8.7× for its
-/// direct light alone) but costs about twice the time per sample there, its choice
-/// between a handful of lights buys nothing (on the Cornell box it gives the alias
-/// table's probabilities), and the solid-angle rule alone cost 7–9% efficiency on the
-/// Cornell boxes for no gain in error.
+/// The default, [`Auto`](LightSamplerKind::Auto), is the light BVH in scenes of at
+/// least [`BVH_MIN_EMITTERS`] emissive triangles and version 10's alias table below,
+/// by measurement (issue 20): where a scene has a handful of emitters, the BVH's
+/// choice between them buys nothing (on the Cornell box it gives the alias table's
+/// probabilities) and the solid-angle rule that comes with it cost 7–9% efficiency on
+/// the Cornell boxes and 1–3% on the staircase (2 emitters each) for no gain in
+/// error; on `meshes/many-lights.obj` (512) and `meshes/many-light-room.obj` (1942)
+/// the BVH lowers the error at equal samples by more than it costs per sample.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSamplerKind {
+    /// [`Bvh`](Self::Bvh) with at least [`BVH_MIN_EMITTERS`] emitters, else
+    /// [`Alias`](Self::Alias) (see [`resolve`](Self::resolve)).
+    #[default]
+    Auto,
     /// In proportion to power, wherever the receiver is (one alias table), then a
     /// uniform point on the triangle's area: the sampler of ALGORITHM_VERSION 10.
-    #[default]
     Alias,
     /// The same alias table, then a direction by solid angle where [`Emitter`]'s rule
     /// says it pays.
@@ -58,13 +62,31 @@ pub enum LightSamplerKind {
     Bvh,
 }
 
+/// The fewest emissive triangles with which [`LightSamplerKind::Auto`] uses the
+/// light BVH. Every scene measured lies far from it on one side: 2 emitters (Cornell
+/// boxes, staircase: the alias table is the more efficient) or 512 and more (the
+/// many-light scenes: the BVH is); between them nothing was measured, and 64 is
+/// where a tree first has three levels of four-wide nodes to choose by.
+pub const BVH_MIN_EMITTERS: usize = 64;
+
 impl LightSamplerKind {
     /// Every choice, the default first.
-    pub const ALL: [LightSamplerKind; 3] = [
+    pub const ALL: [LightSamplerKind; 4] = [
+        LightSamplerKind::Auto,
         LightSamplerKind::Alias,
         LightSamplerKind::SolidAngle,
         LightSamplerKind::Bvh,
     ];
+
+    /// The sampler this choice means in a scene of `emitters` emissive triangles:
+    /// itself, except that [`Auto`](Self::Auto) becomes the BVH or the alias table.
+    pub fn resolve(self, emitters: usize) -> LightSamplerKind {
+        match self {
+            LightSamplerKind::Auto if emitters >= BVH_MIN_EMITTERS => LightSamplerKind::Bvh,
+            LightSamplerKind::Auto => LightSamplerKind::Alias,
+            other => other,
+        }
+    }
 }
 
 /// The scene's emitters with a distribution over them.
@@ -187,7 +209,7 @@ pub struct LightSample {
 }
 
 impl LightSampler {
-    /// The default sampler ([`LightSamplerKind::Alias`]) over the triangles of `mesh`
+    /// The default sampler ([`LightSamplerKind::Auto`]) over the triangles of `mesh`
     /// whose material emits; `textures` are the scene's, for `map_Ke`.
     pub fn new(mesh: &TriangleMesh, materials: &[Material], textures: &[Arc<Texture>]) -> Self {
         Self::with_kind(mesh, materials, textures, LightSamplerKind::default())
@@ -233,7 +255,8 @@ impl LightSampler {
             })
             .collect();
         let start = Instant::now();
-        let choice = match kind {
+        let choice = match kind.resolve(prims.len()) {
+            LightSamplerKind::Auto => unreachable!("resolved above"),
             LightSamplerKind::Alias => AliasTable::new(&weights).map(Choice::Area),
             LightSamplerKind::SolidAngle => AliasTable::new(&weights).map(Choice::SolidAngle),
             LightSamplerKind::Bvh => {
