@@ -7,14 +7,24 @@
 //! Sampling descends from the root, choosing each child with probability proportional
 //! to its [importance](LightBounds::importance) at the receiver, so that one draw
 //! costs O(depth) and allocates nothing. The probability of any emitter is the product
-//! of the same ratios along its path from the root, which each emitter keeps as a bit
+//! of the same ratios along its path from the root, which each emitter keeps as a
 //! trail ([`LightBvh::probability`]); both are computed by the same function on the
 //! same values, so they agree to the bit, and they sum to 1 over the emitters at any
 //! point.
 //!
+//! Nodes are four wide, their children's bounds stored lane by lane, so that the four
+//! importances of one level are one SIMD evaluation (glam's `Vec4`: SSE on x86-64).
+//! That is why: on `meshes/many-light-room.obj` (1942 emitters) a binary tree took
+//! about 11 levels and 23 scalar evaluations per light sample, 1900 instructions of
+//! importance, 31% of the render's instructions; four wide, 5.7 levels of one
+//! evaluation each, 950 (19%), and the whole render's instructions fell by 19%
+//! (callgrind, 80×45 at 8 spp: 1062M → 855M; the alias table's 555M).
+//!
 //! The build (once per scene) is deterministic: it depends only on the order and
-//! values of the emitters. Each split minimises the surface area orientation
-//! heuristic over 12 buckets of centroids per axis.
+//! values of the emitters. Each binary split minimises the surface area orientation
+//! heuristic over 12 buckets of centroids per axis; the binary tree is then collapsed
+//! into four-wide nodes by opening, under each node, the child of most power until it
+//! has four.
 
 use glam::{Vec3, Vec4};
 
@@ -332,7 +342,7 @@ impl LightBvh {
     fn child_probabilities(node: &Node, p: Vec3, n: Vec3) -> Vec4 {
         let mut weights = node.lanes.importance(p, n);
         let mut total = weights.element_sum();
-        if !(total > 0.0) || !total.is_finite() {
+        if total.is_nan() || total <= 0.0 || total.is_infinite() {
             weights = node.lanes.power;
             total = weights.element_sum();
         }
