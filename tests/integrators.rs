@@ -384,8 +384,8 @@ fn original_with_subdivided_light(cuts: usize) -> PathBuf {
     path
 }
 
-/// The Cornell box with its light cut into 12 × 12 quads: 288 emitters, so that the
-/// default light sampler is the light BVH (four levels of four-wide nodes), with its
+/// The Cornell box with its light cut into 16 × 16 quads: 512 emitters, so that the
+/// default light sampler is the light BVH (five levels of four-wide nodes), with its
 /// solid-angle rule. Every integrator, each of which weighs samples by the BVH's
 /// probabilities (the MIS weights and the mixture at emitters hit by BSDF rays, next-
 /// event estimation where they are drawn), still converges to the independent
@@ -393,10 +393,10 @@ fn original_with_subdivided_light(cuts: usize) -> PathBuf {
 /// densities it reports agree.
 #[test]
 fn all_integrators_converge_with_the_light_bvh_to_the_reference() {
-    let path = original_with_subdivided_light(12);
+    let path = original_with_subdivided_light(16);
     let loaded = load(&path);
     let tracer = PathTracer::new(&loaded.scene, &loaded.accel, 8, IntegratorKind::Mis);
-    assert_eq!(tracer.lights.len(), 288);
+    assert_eq!(tracer.lights.len(), 512);
     assert_eq!(tracer.lights.kind(), Some(LightSamplerKind::Bvh));
     assert!(tracer.lights.build_cost().1 > 1, "a tree of one node");
     let leaked: &'static str = Box::leak(path.to_string_lossy().into_owned().into_boxed_str());

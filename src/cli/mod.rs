@@ -85,7 +85,7 @@ pub enum IntegratorArg {
 /// `--light-sampler`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum LightSamplerArg {
-    /// `bvh` in scenes of at least 64 emissive triangles, `alias` below (where the
+    /// `bvh` in scenes of at least 512 emissive triangles, `alias` below (where the
     /// BVH was measured to cost more than it gains).
     Auto,
     /// An alias table: emitters in proportion to power, wherever the point is; a

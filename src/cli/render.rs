@@ -129,7 +129,7 @@ pub struct RenderArgs {
     #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
     guiding_iterations: u32,
     /// How light samples choose an emitter and a point on it: `auto` (`bvh` with at
-    /// least 64 emissive triangles, else `alias`), `alias` (an alias table
+    /// least 512 emissive triangles, else `alias`), `alias` (an alias table
     /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
     /// a direction by solid angle where the triangle spans a wide angle) or `bvh` (a
     /// light BVH weighing power, distance and orientation at the shading point, then
