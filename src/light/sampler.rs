@@ -2,9 +2,10 @@
 //! doing so: the light half of "Ray Tracing: The Rest of Your Life", made to scale.
 //!
 //! A light sample first chooses the sky or an emitter (the sky by its share of the
-//! estimated power). The default ([`LightSamplerKind::Alias`]) then chooses an emitter
-//! in proportion to power from an alias table and a uniform point on its area, with
-//! nothing on its path that depends on the receiver but the distance and cosine.
+//! estimated power). [`LightSamplerKind::Alias`] (the default with few emitters) then
+//! chooses an emitter in proportion to power from an alias table and a uniform point on
+//! its area, with nothing on its path that depends on the receiver but the distance
+//! and cosine.
 //! The others choose by the same table ([`LightSamplerKind::SolidAngle`]) or by a
 //! [`LightBvh`] that weighs each emitter's power, distance and orientation as seen
 //! from the receiver ([`LightSamplerKind::Bvh`]), then a direction by solid angle or
