@@ -240,9 +240,8 @@ impl Lanes {
 struct Node {
     lanes: Lanes,
     /// Per lane, the child: a node index, or an emitter index with [`EMITTER`] set.
+    /// Lanes past the node's children have no power, so they are never chosen.
     children: [u32; 4],
-    /// Lanes in use (the first `count`).
-    count: u32,
 }
 
 /// Marks a child that is an emitter.
@@ -316,7 +315,6 @@ impl LightBvh {
         self.nodes.push(Node {
             lanes: Lanes::EMPTY,
             children: [0; 4],
-            count: children.len() as u32,
         });
         for (lane, child) in children.into_iter().enumerate() {
             self.nodes[here].lanes.set(lane, &child.bounds);
@@ -361,21 +359,19 @@ impl LightBvh {
         let mut probability = 1.0f32;
         loop {
             let chances = Self::child_probabilities(node, p, n).to_array();
-            // The last lane with a chance takes what rounding leaves above the sum.
-            let last = (0..node.count as usize)
-                .rev()
-                .find(|&k| chances[k] > 0.0)
-                .unwrap_or(0);
-            let mut below = 0.0f64;
-            let mut lane = last;
-            for (k, &chance) in chances.iter().enumerate().take(last) {
-                let chance = f64::from(chance);
-                if u < below + chance {
-                    lane = k;
-                    break;
-                }
-                below += chance;
-            }
+            // Lane k takes u in [below[k], below[k + 1]), without branches (the choice
+            // is as unpredictable as u): u passes every boundary below its lane. A lane
+            // without a chance spans nothing, so u passes its end with its start; the
+            // last lane with a chance takes what rounding leaves above the sum.
+            let c = chances.map(f64::from);
+            let below = [0.0, c[0], c[0] + c[1], c[0] + c[1] + c[2]];
+            let passed = usize::from(u >= below[1])
+                + usize::from(u >= below[2])
+                + usize::from(u >= below[3]);
+            let with_chance = (0..4).fold(0u32, |bits, k| bits | u32::from(chances[k] > 0.0) << k);
+            let last = (u32::BITS - 1 - with_chance.max(1).leading_zeros()) as usize;
+            let lane = passed.min(last);
+            let below = below[lane];
             let chance = chances[lane];
             u = ((u - below) / f64::from(chance)).clamp(0.0, ONE_BELOW);
             probability *= chance;
