@@ -11,7 +11,7 @@ then the means and the ratios against the first variant.
 
 Usage:
   benches/light_sampling.py --reference REF.exr --variant NAME=BIN[:ARGS] --variant ...
-                            [--rounds 3] -- SCENE.obj [render flags...]
+                            [--rounds 3] [--cpu] [--crop X,Y,W,H ...] -- SCENE.obj [render flags...]
 Example (the many-light room; the reference is ember's own at 4096 spp):
   benches/light_sampling.py --reference ref.exr \\
       --variant alias=target/release/ember:"--light-sampler alias" \\
@@ -44,8 +44,9 @@ def render(binary, args, out, seed, cpu):
     return float(found.group(1))
 
 
-def relmse(binary, image, reference):
-    out = subprocess.run([binary, "compare", image, reference], capture_output=True, text=True)
+def relmse(binary, image, reference, crop=None):
+    crop_args = ["--crop", crop] if crop else []
+    out = subprocess.run([binary, "compare", image, reference, *crop_args], capture_output=True, text=True)
     found = re.search(r"relMSE ([0-9.eE+-]+)", out.stdout)
     if not found:
         sys.exit(f"error: ember compare {image}: {out.stderr.strip() or out.stdout.strip()}")
@@ -57,6 +58,10 @@ def main():
     parser.add_argument("--reference", required=True)
     parser.add_argument("--variant", action="append", required=True)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument(
+        "--crop", action="append", default=[], metavar="X,Y,W,H",
+        help="also report relMSE inside this rectangle (ember compare --crop); repeatable",
+    )
     parser.add_argument(
         "--cpu", action="store_true", help="seconds of CPU time of the whole process, not the render's wall time"
     )
@@ -70,6 +75,7 @@ def main():
         variants.append((name, binary, shlex.split(extra)))
     print(f"load average before: {os.getloadavg()}")
     results = {name: [] for name, _, _ in variants}
+    crop_results = {name: [] for name, _, _ in variants}
     with tempfile.TemporaryDirectory() as tmp:
         for r in range(opts.rounds):
             for name, binary, extra in variants:
@@ -77,7 +83,10 @@ def main():
                 seconds = render(binary, render_args + extra, out, 1000 + r, opts.cpu)
                 error = relmse(variants[0][1], out, opts.reference)
                 results[name].append((seconds, error))
-                print(f"round {r} {name}: {seconds:.2f} s, relMSE {error:.4e}", flush=True)
+                crops = [relmse(variants[0][1], out, opts.reference, c) for c in opts.crop]
+                crop_results[name].append(crops)
+                shown = "".join(f", crop {c} relMSE {e:.4e}" for c, e in zip(opts.crop, crops))
+                print(f"round {r} {name}: {seconds:.2f} s, relMSE {error:.4e}{shown}", flush=True)
     print(f"load average after: {os.getloadavg()}")
     base_s = sum(s for s, _ in results[variants[0][0]]) / opts.rounds
     base_e = sum(e for _, e in results[variants[0][0]]) / opts.rounds
@@ -90,6 +99,11 @@ def main():
             f"| {name} | {s:.2f} | {e:.4e} | {base_e / e:.2f}x lower | "
             f"{(base_e * base_s) / (e * s):.2f}x |"
         )
+    for k, crop in enumerate(opts.crop):
+        mean = lambda name: sum(c[k] for c in crop_results[name]) / opts.rounds
+        base = mean(variants[0][0])
+        print(f"crop {crop}: " + ", ".join(
+            f"{name} relMSE {mean(name):.4e} ({base / mean(name):.2f}x lower)" for name, _, _ in variants))
 
 
 if __name__ == "__main__":

@@ -12,6 +12,7 @@ use ember::accel::{Accel, Ray};
 use ember::guiding::Guiding;
 use ember::image::{compare_pixels, Image, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
+use ember::light::LightSamplerKind;
 use ember::render::{pixel_sample, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{
@@ -336,6 +337,83 @@ fn all_integrators_converge_to_the_global_illumination_reference() {
 #[test]
 fn all_integrators_converge_to_the_direct_lighting_reference() {
     converges_to(&ORIGINAL_DIRECT, 8, 32);
+}
+
+/// `meshes/CornellBox-Original.obj` with its light cut into `cuts × cuts` quads of
+/// the same plane, winding and material (the same emitting area, so the same image),
+/// written beside a copy of its MTL in a directory of its own; returns the OBJ's path.
+fn original_with_subdivided_light(cuts: usize) -> PathBuf {
+    let source = std::fs::read_to_string(repo("meshes/CornellBox-Original.obj")).unwrap();
+    let (shell, light) = source
+        .split_once("## Object light")
+        .expect("the light comes last");
+    let corners: Vec<Vec3> = light
+        .lines()
+        .filter_map(|l| l.strip_prefix("v"))
+        .map(|l| {
+            let v: Vec<f32> = l.split_whitespace().map(|x| x.parse().unwrap()).collect();
+            Vec3::new(v[0], v[1], v[2])
+        })
+        .collect();
+    let [v1, v2, _, v4] = corners[..] else {
+        panic!("the light is one quad: {corners:?}");
+    };
+    let point = |a: usize, b: usize| {
+        let (a, b) = (a as f32 / cuts as f32, b as f32 / cuts as f32);
+        v1 + a * (v2 - v1) + b * (v4 - v1)
+    };
+    let mut obj = format!("{shell}g light\nusemtl light\n");
+    for i in 0..cuts {
+        for j in 0..cuts {
+            // Corners in the order of the original quad's (v1, v2, v3, v4).
+            for (a, b) in [(i, j), (i + 1, j), (i + 1, j + 1), (i, j + 1)] {
+                let p = point(a, b);
+                obj += &format!("v {} {} {}\n", p.x, p.y, p.z);
+            }
+            obj += "f -4 -3 -2 -1\n";
+        }
+    }
+    let dir = std::env::temp_dir().join(format!("ember-subdivided-light-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::copy(
+        repo("meshes/CornellBox-Original.mtl"),
+        dir.join("CornellBox-Original.mtl"),
+    )
+    .unwrap();
+    let path = dir.join("CornellBox-Original.obj");
+    std::fs::write(&path, obj).unwrap();
+    path
+}
+
+/// The Cornell box with its light cut into 16 × 16 quads: 512 emitters, so that the
+/// default light sampler is the light BVH (five levels of four-wide nodes), with its
+/// solid-angle rule. Every integrator, each of which weighs samples by the BVH's
+/// probabilities (the MIS weights and the mixture at emitters hit by BSDF rays, next-
+/// event estimation where they are drawn), still converges to the independent
+/// reference of the undivided box at the rate 1/spp: the tree's choices and the
+/// densities it reports agree.
+#[test]
+fn all_integrators_converge_with_the_light_bvh_to_the_reference() {
+    let path = original_with_subdivided_light(16);
+    let loaded = load(&path);
+    let tracer = PathTracer::new(&loaded.scene, &loaded.accel, 8, IntegratorKind::Mis);
+    assert_eq!(tracer.lights.len(), 512);
+    assert_eq!(tracer.lights.kind(), Some(LightSamplerKind::Bvh));
+    assert!(tracer.lights.build_cost().1 > 1, "a tree of one node");
+    let leaked: &'static str = Box::leak(path.to_string_lossy().into_owned().into_boxed_str());
+    let scene = ReferenceScene {
+        obj: leaked,
+        ..ORIGINAL
+    };
+    let errors = converges_to(&scene, 8, 32);
+    std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+    // As good as the alias table on the undivided light, within the noise of two runs.
+    let mis = error_of(&errors, IntegratorKind::Mis);
+    let undivided = error_of(&converges_to(&ORIGINAL, 8, 32), IntegratorKind::Mis);
+    assert!(
+        mis < 1.25 * undivided,
+        "mis {mis:.3e}, undivided {undivided:.3e}"
+    );
 }
 
 /// Glossy floor, rough metal box and rough coated box: every integrator converges to

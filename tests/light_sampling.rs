@@ -15,7 +15,8 @@ use ember::light::spherical_triangle::{
     bilinear_density, sample_bilinear, SphericalTriangle, Warp,
 };
 use ember::light::{
-    LightSampler, LightSamplerKind, LightTarget, Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE,
+    LightSampler, LightSamplerKind, LightTarget, Receiver, BVH_MIN_EMITTERS, MAX_SOLID_ANGLE,
+    MIN_SOLID_ANGLE,
 };
 use ember::sampling::{uniform_sphere, Rng};
 use glam::{DVec3, Vec3};
@@ -377,13 +378,19 @@ fn bvh_probabilities_sum_to_one_and_vanish_only_where_no_light_shines() {
     }
 }
 
+/// Over trees of two to five levels of four-wide nodes (60 and 700 lights).
 #[test]
 fn bvh_choices_follow_its_probabilities() {
-    let n = 60;
+    for (n, receivers) in [(60, 6), (700, 3)] {
+        bvh_choices_follow_its_probabilities_with(n, receivers);
+    }
+}
+
+fn bvh_choices_follow_its_probabilities_with(n: usize, receivers: u64) {
     let (lights, _) = random_lights(n, 5);
     let bvh = LightBvh::new(&lights).unwrap();
     let mut rng = Rng::seeded(9);
-    for k in 0..6 {
+    for k in 0..receivers {
         let (p, normal) = random_receiver(&mut rng, k % 2 == 1);
         let draws = 200_000;
         let mut counts = vec![0.0; n];
@@ -410,7 +417,16 @@ fn bvh_build_is_deterministic() {
     let (lights, _) = random_lights(500, 3);
     let a = LightBvh::new(&lights).unwrap();
     let b = LightBvh::new(&lights).unwrap();
-    assert_eq!(a.node_count(), 2 * (500 - 500 / 17) - 1);
+    // Four-wide nodes over the 471 lights with power: at least (471 − 1)/3 of them
+    // (every node full), fewer than the 470 interior nodes of a binary tree.
+    let lights_with_power: usize = 500 - 500 / 17;
+    assert_eq!(a.node_count(), b.node_count());
+    assert!(
+        (lights_with_power - 1).div_ceil(3) <= a.node_count()
+            && a.node_count() < lights_with_power - 1,
+        "{} nodes",
+        a.node_count()
+    );
     let p = Vec3::new(0.3, -1.0, 2.0);
     for i in 0..500 {
         assert_eq!(
@@ -595,4 +611,76 @@ fn a_sphere_of_emitters_gives_the_known_direct_light() {
             );
         }
     }
+}
+
+/// The default (`auto`) is the alias table below [`BVH_MIN_EMITTERS`] emitters and the
+/// light BVH from there on, in the sampler and in the render's identity alike: a
+/// default render of a scene with few emitters has the identity of an explicit
+/// `alias` render (version 10's, with no `light-sampler` entry), one of a scene with
+/// many that of an explicit `bvh` render (`light-sampler bvh4`).
+#[test]
+fn the_default_is_the_bvh_from_a_measured_emitter_count() {
+    use ember::render::{identity, RenderSettings};
+    assert_eq!(
+        LightSamplerKind::Auto.resolve(BVH_MIN_EMITTERS - 1),
+        LightSamplerKind::Alias
+    );
+    assert_eq!(
+        LightSamplerKind::Auto.resolve(BVH_MIN_EMITTERS),
+        LightSamplerKind::Bvh
+    );
+    for kind in [
+        LightSamplerKind::Alias,
+        LightSamplerKind::SolidAngle,
+        LightSamplerKind::Bvh,
+    ] {
+        assert_eq!(kind.resolve(0), kind);
+        assert_eq!(kind.resolve(100_000), kind);
+    }
+    let few = one_emitter();
+    let (many, _) = emitter_sphere(&|_| 1.0);
+    assert!(many.scene.emitters.len() >= BVH_MIN_EMITTERS);
+    assert_eq!(LightSamplerKind::default(), LightSamplerKind::Auto);
+    assert_eq!(
+        sampler(&few, LightSamplerKind::Auto).kind(),
+        Some(LightSamplerKind::Alias)
+    );
+    assert_eq!(
+        sampler(&many, LightSamplerKind::Auto).kind(),
+        Some(LightSamplerKind::Bvh)
+    );
+    let camera = ember::scene::CameraSettings {
+        eye: Vec3::new(0.0, 0.0, 3.0),
+        look_at: Vec3::ZERO,
+        up: Vec3::Y,
+        vfov_degrees: 40.0,
+    };
+    let id = |built: &Built, light_sampler| {
+        let settings = RenderSettings {
+            width: 8,
+            height: 8,
+            spp: 1,
+            max_depth: 8,
+            seed: 0,
+            integrator: Default::default(),
+            light_sampler,
+            adaptive: None,
+            guiding: None,
+        };
+        identity(
+            &built.scene,
+            &camera,
+            &settings,
+            ember::accel::AccelKind::Embree,
+        )
+    };
+    let auto_few = id(&few, LightSamplerKind::Auto);
+    assert_eq!(auto_few, id(&few, LightSamplerKind::Alias));
+    assert!(auto_few.iter().all(|(k, _)| k != "light-sampler"));
+    let auto_many = id(&many, LightSamplerKind::Auto);
+    assert_eq!(auto_many, id(&many, LightSamplerKind::Bvh));
+    assert!(auto_many
+        .iter()
+        .any(|(k, v)| k == "light-sampler" && v == "bvh4"));
+    assert_ne!(auto_many, id(&many, LightSamplerKind::Alias));
 }

@@ -6,7 +6,7 @@ use anyhow::{bail, Result};
 use clap::Args;
 
 use ember::embree::Device;
-use ember::image::{self, Image};
+use ember::image::{self, Crop, Image};
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -14,12 +14,19 @@ pub struct CompareArgs {
     image: PathBuf,
     /// The reference it is compared with (relative MSE is relative to this one).
     reference: PathBuf,
+    /// Compare only the pixels of this rectangle: left column, top row, width, height
+    /// (row 0 at the top), e.g. a region near a light.
+    #[arg(long, value_name = "X,Y,W,H")]
+    crop: Option<Crop>,
 }
 
 pub fn compare(args: CompareArgs) -> Result<()> {
     let image = Image::load(&args.image)?;
     let reference = Image::load(&args.reference)?;
-    let error = image::compare(&image, &reference)?;
+    let error = match args.crop {
+        None => image::compare(&image, &reference)?,
+        Some(crop) => image::compare_crop(&image, &reference, crop)?,
+    };
     println!(
         "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
         error.mse, error.rel_mse, error.psnr

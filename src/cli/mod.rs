@@ -86,6 +86,9 @@ pub enum IntegratorArg {
 /// `--light-sampler`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum LightSamplerArg {
+    /// `bvh` in scenes of at least 512 emissive triangles, `alias` below (where the
+    /// BVH was measured to cost more than it gains).
+    Auto,
     /// An alias table: emitters in proportion to power, wherever the point is; a
     /// uniform point on the chosen triangle's area.
     Alias,
@@ -100,6 +103,7 @@ pub enum LightSamplerArg {
 impl From<LightSamplerArg> for LightSamplerKind {
     fn from(arg: LightSamplerArg) -> Self {
         match arg {
+            LightSamplerArg::Auto => LightSamplerKind::Auto,
             LightSamplerArg::Bvh => LightSamplerKind::Bvh,
             LightSamplerArg::Alias => LightSamplerKind::Alias,
             LightSamplerArg::SolidAngle => LightSamplerKind::SolidAngle,

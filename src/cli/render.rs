@@ -143,13 +143,14 @@ pub struct RenderArgs {
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
     #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
     guiding_iterations: u32,
-    /// How light samples choose an emitter and a point on it: `alias` (an alias table
+    /// How light samples choose an emitter and a point on it: `auto` (`bvh` with at
+    /// least 512 emissive triangles, else `alias`), `alias` (an alias table
     /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
     /// a direction by solid angle where the triangle spans a wide angle) or `bvh` (a
     /// light BVH weighing power, distance and orientation at the shading point, then
     /// as `solid-angle`: fewer samples for the same error with many lights, more time
     /// per sample).
-    #[arg(long, value_enum, default_value_t = LightSamplerArg::Alias)]
+    #[arg(long, value_enum, default_value_t = LightSamplerArg::Auto)]
     light_sampler: LightSamplerArg,
     /// Write the progress to the checkpoint file every SECONDS (atomically), so that a
     /// killed render loses at most that much work; the final state is kept too.

@@ -46,6 +46,75 @@ pub fn compare(image: &Image, reference: &Image) -> Result<ImageError, SizeMisma
     ))
 }
 
+/// A rectangle of pixels: its top-left corner (column `x`, row `y`, row 0 at the top)
+/// and size, as `ember compare --crop x,y,w,h` reads it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Crop {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl std::str::FromStr for Crop {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        let numbers: Vec<u32> = s
+            .split(',')
+            .map(|n| n.trim().parse::<u32>())
+            .collect::<Result<_, _>>()
+            .map_err(|_| format!("{s:?} is not x,y,w,h (four whole numbers)"))?;
+        let [x, y, width, height] = numbers[..] else {
+            return Err(format!("{s:?} is not x,y,w,h (four whole numbers)"));
+        };
+        if width == 0 || height == 0 {
+            return Err(format!("{s:?} is an empty rectangle"));
+        }
+        Ok(Crop {
+            x,
+            y,
+            width,
+            height,
+        })
+    }
+}
+
+/// The crop does not lie inside the images.
+#[derive(Debug, thiserror::Error)]
+pub enum CropError {
+    #[error(transparent)]
+    Size(#[from] SizeMismatch),
+    #[error("crop {}x{} at ({}, {}) reaches outside the {width}x{height} image", .crop.width, .crop.height, .crop.x, .crop.y)]
+    Outside { crop: Crop, width: u32, height: u32 },
+}
+
+/// Compares the pixels of `image` inside `crop` against those of `reference`.
+pub fn compare_crop(image: &Image, reference: &Image, crop: Crop) -> Result<ImageError, CropError> {
+    compare(image, reference)?;
+    let (width, height) = (image.width, image.height);
+    let inside = u64::from(crop.x) + u64::from(crop.width) <= u64::from(width)
+        && u64::from(crop.y) + u64::from(crop.height) <= u64::from(height);
+    if !inside {
+        return Err(CropError::Outside {
+            crop,
+            width,
+            height,
+        });
+    }
+    let pixel = |row: u32, column: u32| (row * width + column) as usize;
+    Ok(compare_pixels((crop.y..crop.y + crop.height).flat_map(
+        |row| {
+            (crop.x..crop.x + crop.width).map(move |column| {
+                (
+                    image.pixels[pixel(row, column)],
+                    reference.pixels[pixel(row, column)],
+                )
+            })
+        },
+    )))
+}
+
 /// The metrics over any set of (test, reference) pixel pairs, e.g. a subset of an image.
 pub fn compare_pixels(pairs: impl Iterator<Item = (glam::Vec3, glam::Vec3)>) -> ImageError {
     let (mut se, mut rel, mut n) = (0.0f64, 0.0f64, 0u64);
@@ -84,5 +153,31 @@ mod tests {
         assert!((e.rel_mse - 0.5 * 0.01 / (0.01 + 0.01)).abs() < 1e-6);
         assert!((e.psnr - 10.0 * (200.0f64).log10()).abs() < 1e-6);
         assert!(compare(&Image::new(2, 2), &b).is_err());
+    }
+
+    #[test]
+    fn a_crop_counts_only_its_pixels() {
+        // 3x2 images differing only in the pixel at column 2, row 1.
+        let reference = Image {
+            width: 3,
+            height: 2,
+            pixels: vec![Vec3::splat(0.5); 6],
+        };
+        let mut image = reference.clone();
+        image.pixels[3 + 2] = Vec3::splat(0.7);
+        let crop = |s: &str| s.parse::<Crop>().unwrap();
+        let error = |c: &str| compare_crop(&image, &reference, crop(c)).unwrap();
+        // The whole image as a crop is the whole comparison.
+        assert_eq!(error("0,0,3,2"), compare(&image, &reference).unwrap());
+        // Only the differing pixel: MSE 0.2² in every channel.
+        assert!((error("2,1,1,1").mse - 0.04).abs() < 1e-6);
+        // The two pixels of the right column: half that.
+        assert!((error("2,0,1,2").mse - 0.02).abs() < 1e-6);
+        assert_eq!(error("0,0,2,2").mse, 0.0);
+        assert!(compare_crop(&image, &reference, crop("2,1,2,1")).is_err());
+        assert!(compare_crop(&image, &reference, crop("0,2,1,1")).is_err());
+        for bad in ["1,2,3", "1,2,3,4,5", "a,b,c,d", "0,0,0,1", "-1,0,1,1"] {
+            assert!(bad.parse::<Crop>().is_err(), "{bad}");
+        }
     }
 }

@@ -7,7 +7,9 @@ mod decode;
 pub mod layers;
 mod tonemap;
 
-pub use compare::{compare, compare_pixels, ImageError, SizeMismatch};
+pub use compare::{
+    compare, compare_crop, compare_pixels, Crop, CropError, ImageError, SizeMismatch,
+};
 pub use decode::{decode_file, decode_jpeg};
 pub use layers::{Layer, LayerError, LayeredImage};
 pub use tonemap::{ToneCurve, Tonemap};

@@ -2,8 +2,9 @@
 //! sky ([`LightSampler`]), and the book's densities over directions built on it and on
 //! the BSDF ([`Pdf`]: [`BsdfPdf`], [`LightPdf`], [`MixturePdf`]).
 //!
-//! An emitter is chosen by an alias table (by default, then a uniform point on its
-//! area) or by a light BVH ([`bvh`]); with `--light-sampler solid-angle` or `bvh`, a
+//! An emitter is chosen by an alias table (then a uniform point on its area: the
+//! default with fewer than [`BVH_MIN_EMITTERS`] emitters) or by a light BVH ([`bvh`]:
+//! the default from there on); with the BVH or `--light-sampler solid-angle`, a
 //! direction towards it by solid angle ([`spherical_triangle`]) or by area, as
 //! [`emitter`]'s rule decides.
 
@@ -15,4 +16,4 @@ pub mod spherical_triangle;
 
 pub use emitter::{Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
 pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
-pub use sampler::{LightSample, LightSampler, LightSamplerKind, LightTarget};
+pub use sampler::{LightSample, LightSampler, LightSamplerKind, LightTarget, BVH_MIN_EMITTERS};

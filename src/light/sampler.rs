@@ -2,9 +2,10 @@
 //! doing so: the light half of "Ray Tracing: The Rest of Your Life", made to scale.
 //!
 //! A light sample first chooses the sky or an emitter (the sky by its share of the
-//! estimated power). The default ([`LightSamplerKind::Alias`]) then chooses an emitter
-//! in proportion to power from an alias table and a uniform point on its area, with
-//! nothing on its path that depends on the receiver but the distance and cosine.
+//! estimated power). [`LightSamplerKind::Alias`] (the default with few emitters) then
+//! chooses an emitter in proportion to power from an alias table and a uniform point on
+//! its area, with nothing on its path that depends on the receiver but the distance
+//! and cosine.
 //! The others choose by the same table ([`LightSamplerKind::SolidAngle`]) or by a
 //! [`LightBvh`] that weighs each emitter's power, distance and orientation as seen
 //! from the receiver ([`LightSamplerKind::Bvh`]), then a direction by solid angle or
@@ -37,18 +38,28 @@ use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
 /// How an emitter and a point on it are chosen for a light sample.
 ///
-/// The alias table with area sampling is the default because it was measured the more
-/// efficient on every full global-illumination render tried (issue 20): the BVH lowers
-/// the error at equal samples (1.8× on `meshes/many-light-room.obj`, 8.7× for its
-/// direct light alone) but costs about twice the time per sample there, its choice
-/// between a handful of lights buys nothing (on the Cornell box it gives the alias
-/// table's probabilities), and the solid-angle rule alone cost 7–9% efficiency on the
-/// Cornell boxes for no gain in error.
+/// The default, [`Auto`](LightSamplerKind::Auto), is the light BVH in scenes of at
+/// least [`BVH_MIN_EMITTERS`] emissive triangles and version 10's alias table below,
+/// so that the BVH is used only where it was measured no less efficient (issue 20;
+/// CPU time of alternating one-thread runs, relMSE against references at equal spp):
+/// - the Cornell boxes and the staircase (2 emitters): the BVH's choice between two
+///   triangles buys nothing, and the solid-angle rule that comes with it cost 7–9%
+///   efficiency on the Cornell boxes and 1–3% on the staircase for no gain in error;
+/// - the Cornell box with its light cut into 288 triangles: relMSE 1.09× lower but
+///   0.70× the efficiency (one cluster of lights: the tree only adds cost);
+/// - `meshes/many-lights.obj` (512 small lights over the whole ceiling): relMSE 1.58×
+///   lower, efficiency 0.98–0.99× (within the noise of the runs);
+/// - `meshes/many-light-room.obj` (1942): relMSE 1.78× lower, efficiency 0.94–1.04×
+///   over three sets of runs, and for the direct light alone (depth 2) relMSE 10.7×
+///   lower, efficiency 6.4×.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSamplerKind {
+    /// [`Bvh`](Self::Bvh) with at least [`BVH_MIN_EMITTERS`] emitters, else
+    /// [`Alias`](Self::Alias) (see [`resolve`](Self::resolve)).
+    #[default]
+    Auto,
     /// In proportion to power, wherever the receiver is (one alias table), then a
     /// uniform point on the triangle's area: the sampler of ALGORITHM_VERSION 10.
-    #[default]
     Alias,
     /// The same alias table, then a direction by solid angle where [`Emitter`]'s rule
     /// says it pays.
@@ -58,13 +69,31 @@ pub enum LightSamplerKind {
     Bvh,
 }
 
+/// The fewest emissive triangles with which [`LightSamplerKind::Auto`] uses the
+/// light BVH: the smallest count measured where the BVH was not less efficient than
+/// the alias table (see [`LightSamplerKind`]). A count is a proxy: what makes the BVH
+/// pay is lights spread through the scene, so that distance and orientation tell
+/// them apart; one finely cut panel of more triangles would still get the BVH.
+pub const BVH_MIN_EMITTERS: usize = 512;
+
 impl LightSamplerKind {
     /// Every choice, the default first.
-    pub const ALL: [LightSamplerKind; 3] = [
+    pub const ALL: [LightSamplerKind; 4] = [
+        LightSamplerKind::Auto,
         LightSamplerKind::Alias,
         LightSamplerKind::SolidAngle,
         LightSamplerKind::Bvh,
     ];
+
+    /// The sampler this choice means in a scene of `emitters` emissive triangles:
+    /// itself, except that [`Auto`](Self::Auto) becomes the BVH or the alias table.
+    pub fn resolve(self, emitters: usize) -> LightSamplerKind {
+        match self {
+            LightSamplerKind::Auto if emitters >= BVH_MIN_EMITTERS => LightSamplerKind::Bvh,
+            LightSamplerKind::Auto => LightSamplerKind::Alias,
+            other => other,
+        }
+    }
 }
 
 /// The scene's emitters with a distribution over them.
@@ -187,7 +216,7 @@ pub struct LightSample {
 }
 
 impl LightSampler {
-    /// The default sampler ([`LightSamplerKind::Alias`]) over the triangles of `mesh`
+    /// The default sampler ([`LightSamplerKind::Auto`]) over the triangles of `mesh`
     /// whose material emits; `textures` are the scene's, for `map_Ke`.
     pub fn new(mesh: &TriangleMesh, materials: &[Material], textures: &[Arc<Texture>]) -> Self {
         Self::with_kind(mesh, materials, textures, LightSamplerKind::default())
@@ -233,7 +262,8 @@ impl LightSampler {
             })
             .collect();
         let start = Instant::now();
-        let choice = match kind {
+        let choice = match kind.resolve(prims.len()) {
+            LightSamplerKind::Auto => unreachable!("resolved above"),
             LightSamplerKind::Alias => AliasTable::new(&weights).map(Choice::Area),
             LightSamplerKind::SolidAngle => AliasTable::new(&weights).map(Choice::SolidAngle),
             LightSamplerKind::Bvh => {

@@ -28,12 +28,16 @@ pub fn identity(
     accel: AccelKind,
 ) -> Identity {
     let v = |v: Vec3| format!("{:?},{:?},{:?}", v.x, v.y, v.z);
-    // Only a light sampler other than the default is named, so that a default render's
-    // identity (and its checkpoints and shards) are those of versions without the flag.
-    let light_sampler = match settings.light_sampler {
+    // The sampler the render uses, `auto` resolved by the scene's emitters; only one
+    // other than version 10's alias table is named, so that a render with that table
+    // (the default with few emitters) has the identity, checkpoints and shards of
+    // versions without the choice. The four-wide BVH is `bvh4`: the binary tree's
+    // `bvh` checkpoints are refused.
+    let light_sampler = match settings.light_sampler.resolve(scene.emitters.len()) {
+        LightSamplerKind::Auto => unreachable!("resolved"),
         LightSamplerKind::Alias => None,
         LightSamplerKind::SolidAngle => Some("solid-angle"),
-        LightSamplerKind::Bvh => Some("bvh"),
+        LightSamplerKind::Bvh => Some("bvh4"),
     };
     let mut pairs: Vec<(&str, String)> = vec![
         ("width", settings.width.to_string()),
