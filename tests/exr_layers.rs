@@ -149,3 +149,39 @@ fn a_malformed_image_is_refused_and_leaves_no_file() {
         assert!(!path.exists());
     }
 }
+
+/// The same image gives the same bytes: exrs compresses blocks on several threads and,
+/// unless told the order, writes each as it finishes. An image of many 64×64 tiles
+/// whose blocks take different times to compress (noise beside flat areas) is written
+/// repeatedly, as a plain EXR and with layers, and every encoding must be the first.
+#[test]
+fn the_same_image_always_encodes_to_the_same_bytes() {
+    let (w, h) = (640u32, 384u32);
+    let px = (w * h) as usize;
+    let mut noise = awkward(3 * px, 9);
+    // Flat bands compress almost at once; noisy ones do not.
+    for (i, v) in noise.iter_mut().enumerate() {
+        if (i / 3 / w as usize / 64) % 2 == 0 {
+            *v = 0.25;
+        }
+    }
+    let image = Image {
+        width: w,
+        height: h,
+        pixels: noise.chunks_exact(3).map(Vec3::from_slice).collect(),
+    };
+    let mut layered = LayeredImage::new(w, h);
+    layered.set(Layer::from_image(names::MAIN, names::RGB, &image));
+    layered.set(Layer::new(names::DEPTH, &["Z"], awkward(px, 10)));
+    let plain = image.encode(ember::image::OutputFormat::Exr).unwrap();
+    let first = layered.encode_exr().unwrap();
+    for _ in 0..12 {
+        assert!(image.encode(ember::image::OutputFormat::Exr).unwrap() == plain);
+        assert!(layered.encode_exr().unwrap() == first);
+    }
+    // What was written is what the image holds.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("plain.exr");
+    std::fs::write(&path, &plain).unwrap();
+    assert_eq!(Image::load(&path).unwrap(), image);
+}

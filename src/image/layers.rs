@@ -199,7 +199,9 @@ impl LayeredImage {
     }
 
     /// The image as an EXR file in memory: one part, 32-bit float channels, ZIP
-    /// compression (lossless).
+    /// compression (lossless), blocks in increasing order. exrs compresses blocks in
+    /// parallel and, with the default unspecified order, writes them as they finish, so
+    /// the same image could give different bytes from run to run.
     pub fn encode_exr(&self) -> Result<Vec<u8>, String> {
         self.validate().map_err(|e| e.to_string())?;
         let pixels = self.width as usize * self.height as usize;
@@ -219,6 +221,7 @@ impl LayeredImage {
             x::LayerAttributes::default(),
             x::Encoding {
                 compression: x::Compression::ZIP16,
+                line_order: x::LineOrder::Increasing,
                 ..x::Encoding::default()
             },
             x::AnyChannels::sort(channels),

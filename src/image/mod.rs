@@ -111,27 +111,31 @@ impl Image {
 
     /// Encodes the image in `format` into memory (8-bit formats through the default
     /// tone map: sRGB, clipped).
-    pub fn encode(&self, format: OutputFormat) -> Result<Vec<u8>, ::image::ImageError> {
+    pub fn encode(&self, format: OutputFormat) -> Result<Vec<u8>, String> {
         self.encode_with(format, &Tonemap::default())
     }
 
     /// Encodes the image in `format`, 8-bit formats through `tonemap` (EXR and HDR
-    /// stay linear).
-    pub fn encode_with(
-        &self,
-        format: OutputFormat,
-        tonemap: &Tonemap,
-    ) -> Result<Vec<u8>, ::image::ImageError> {
+    /// stay linear). EXR goes through the layer writer, as one main layer, because
+    /// it writes its blocks in a fixed order: the same image, the same bytes.
+    pub fn encode_with(&self, format: OutputFormat, tonemap: &Tonemap) -> Result<Vec<u8>, String> {
         let mut bytes = std::io::Cursor::new(Vec::new());
-        match format {
+        let written = match format {
             OutputFormat::Png => self
                 .to_srgb8(tonemap)
-                .write_to(&mut bytes, ImageFormat::Png)?,
-            OutputFormat::Exr => self
-                .to_rgb32f()
-                .write_to(&mut bytes, ImageFormat::OpenExr)?,
-            OutputFormat::Hdr => self.to_rgb32f().write_to(&mut bytes, ImageFormat::Hdr)?,
-        }
+                .write_to(&mut bytes, ImageFormat::Png),
+            OutputFormat::Exr => {
+                let mut layered = LayeredImage::new(self.width, self.height);
+                layered.layers.push(Layer::from_image(
+                    layers::names::MAIN,
+                    layers::names::RGB,
+                    self,
+                ));
+                return layered.encode_exr();
+            }
+            OutputFormat::Hdr => self.to_rgb32f().write_to(&mut bytes, ImageFormat::Hdr),
+        };
+        written.map_err(|e| e.to_string())?;
         Ok(bytes.into_inner())
     }
 
@@ -143,10 +147,12 @@ impl Image {
     /// [`save`](Self::save), 8-bit formats through `tonemap`.
     pub fn save_with(&self, path: &Path, tonemap: &Tonemap) -> Result<(), ImageFileError> {
         let format = OutputFormat::from_path(path)?;
-        let bytes = self.encode_with(format, tonemap).map_err(|e| WriteError {
-            path: path.to_owned(),
-            reason: e.to_string(),
-        })?;
+        let bytes = self
+            .encode_with(format, tonemap)
+            .map_err(|reason| WriteError {
+                path: path.to_owned(),
+                reason,
+            })?;
         Ok(io::write_atomically(path, &bytes)?)
     }
 
