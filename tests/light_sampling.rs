@@ -654,6 +654,7 @@ fn the_default_is_the_bvh_from_a_measured_emitter_count() {
         look_at: Vec3::ZERO,
         up: Vec3::Y,
         vfov_degrees: 40.0,
+        lens: Default::default(),
     };
     let id = |built: &Built, light_sampler| {
         let settings = RenderSettings {
