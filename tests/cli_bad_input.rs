@@ -2,17 +2,12 @@
 //! output file left behind.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
+
+mod common;
+use common::ember_in as ember;
 
 const TRIANGLE: &str = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-
-fn ember(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ember"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("ember runs")
-}
 
 /// Asserts the run failed the way a user should see it: exit code non-zero, exactly
 /// one line on stderr naming the problem, nothing on stdout, no panic text.

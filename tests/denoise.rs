@@ -458,22 +458,12 @@ fn ember_render_denoise_writes_the_denoised_and_the_noisy_image() {
     let render = |out: &Path, extra: &[&str]| {
         let mut args: Vec<&std::ffi::OsStr> = vec!["render".as_ref(), obj.as_os_str()];
         for a in [
-            "--width",
-            "128",
-            "--height",
-            "128",
-            "--spp",
-            "16",
-            "--seed",
-            "5",
-            "--eye",
-            "0,1,3.9",
-            "--look-at",
-            "0,1,0",
-            "--fov",
-            "40",
-            "-o",
-        ] {
+            "--width", "128", "--height", "128", "--spp", "16", "--seed", "5",
+        ]
+        .into_iter()
+        .chain(common::CORNELL_CAMERA)
+        .chain(["-o"])
+        {
             args.push(a.as_ref());
         }
         args.push(out.as_os_str());

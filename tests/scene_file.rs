@@ -3,15 +3,10 @@
 //! error is one line naming the file, line, column and key, with no output left.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn ember(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_ember"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("ember runs")
-}
+mod common;
+use common::{ember_in as ember, CORNELL_CAMERA};
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -37,18 +32,8 @@ fn the_shipped_cornell_scene_file_renders_the_image_of_its_flags() {
         from_file.extend(SMALL);
         from_file.extend(["--accel", accel]);
         ok(&ember(&from_file, dir.path()));
-        let mut from_flags = vec![
-            "render",
-            obj.to_str().unwrap(),
-            "-o",
-            "flags.png",
-            "--eye",
-            "0,1,3.9",
-            "--look-at",
-            "0,1,0",
-            "--fov",
-            "40",
-        ];
+        let mut from_flags = vec!["render", obj.to_str().unwrap(), "-o", "flags.png"];
+        from_flags.extend(CORNELL_CAMERA);
         from_flags.extend(SMALL);
         from_flags.extend(["--accel", accel]);
         ok(&ember(&from_flags, dir.path()));

@@ -4,10 +4,25 @@
 pub mod fuzz;
 pub mod stats;
 
+use std::path::Path;
+use std::process::{Command, Output};
+
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
 use ember::scene::{Material, Scene, TriangleMesh};
 use glam::Vec3;
+
+/// The camera of the Cornell references (Mitsuba's), as `ember render` flags.
+pub const CORNELL_CAMERA: [&str; 6] = ["--eye", "0,1,3.9", "--look-at", "0,1,0", "--fov", "40"];
+
+/// Runs this build's `ember` with `args` in the directory `dir`.
+pub fn ember_in(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_ember"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("ember runs")
+}
 
 /// A scene and the Embree structure over it.
 pub struct Built {
