@@ -50,7 +50,7 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
     if OutputFormat::from_path(&args.output)? == OutputFormat::Exr {
         let mut output = input;
         output.set(Layer::from_image(names::NOISY, names::RGB, &color));
-        output.set(Layer::from_image(names::MAIN, names::RGB, &denoised));
+        output.set(Layer::main(&denoised));
         output.write_exr(&args.output)?;
     } else {
         denoised.save_with(&args.output, &args.tone.into())?;

@@ -45,9 +45,7 @@ impl FilmOutput<'_> {
             return Ok(main.save_with(path, self.tonemap)?);
         }
         let mut layered = LayeredImage::new(film.width, film.height);
-        layered
-            .layers
-            .push(Layer::from_image(names::MAIN, names::RGB, main));
+        layered.layers.push(Layer::main(main));
         if image.is_some() {
             layered
                 .layers

@@ -100,6 +100,12 @@ impl Layer {
         Layer::new(name, &channels, data)
     }
 
+    /// The main image's layer (plain `R,G,B`), the one [`LayeredImage::main_image`]
+    /// reads back.
+    pub fn main(image: &Image) -> Layer {
+        Layer::from_image(names::MAIN, names::RGB, image)
+    }
+
     /// The channel's full name in the file: `layer.channel`, or `channel` for the main
     /// image.
     fn full_name(&self, channel: &str) -> String {

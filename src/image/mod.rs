@@ -126,11 +126,7 @@ impl Image {
                 .write_to(&mut bytes, ImageFormat::Png),
             OutputFormat::Exr => {
                 let mut layered = LayeredImage::new(self.width, self.height);
-                layered.layers.push(Layer::from_image(
-                    layers::names::MAIN,
-                    layers::names::RGB,
-                    self,
-                ));
+                layered.layers.push(Layer::main(self));
                 return layered.encode_exr();
             }
             OutputFormat::Hdr => self.to_rgb32f().write_to(&mut bytes, ImageFormat::Hdr),
