@@ -78,13 +78,14 @@ def build(rng):
         o.square(f"light{rng.randrange(len(POWERS))}", center, u, v, SMALL)
 
     count = 0
-    # Ceiling: a jittered grid facing down (u x v = -y).
+    # Ceiling: a jittered grid facing down (u x v = -y; it was +y before, so that the
+    # ceiling lamps and panels shone into the 5 mm gap above them).
     for i in range(50):
         for k in range(8):
             x, z = (i + rng.uniform(0.2, 0.8)) * W / 50, (k + rng.uniform(0.2, 0.8)) * D / 8
             if any(abs(x - p) < 0.15 for p in PARTITIONS):
                 continue
-            small((x, H - OFFSET, z), (0, 0, 1), (1, 0, 0))
+            small((x, H - OFFSET, z), (1, 0, 0), (0, 0, 1))
             count += 1
     # Long walls: rows of lamps facing into the hall.
     for i in range(100):
@@ -111,7 +112,7 @@ def build(rng):
             count += 1
     # The strong lights: large ceiling panels in three of the bays.
     for x in (2.5, 12.5, 17.5):
-        o.square("panel", (x, H - OFFSET, 4.0), (0, 0, 1), (1, 0, 0), 0.8)
+        o.square("panel", (x, H - OFFSET, 4.0), (1, 0, 0), (0, 0, 1), 0.8)
     return o, count
 
 
