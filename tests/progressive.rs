@@ -189,7 +189,7 @@ fn a_checkpoint_round_trips_and_resumes_to_the_same_image() {
     // reads "(none)".
     for (kind, name) in [
         (ember::light::LightSamplerKind::SolidAngle, "solid-angle"),
-        (ember::light::LightSamplerKind::Bvh, "bvh4"),
+        (ember::light::LightSamplerKind::Bvh, "bvh4 2"),
     ] {
         let other_lights = RenderSettings {
             light_sampler: kind,

@@ -126,12 +126,13 @@ struct Step {
 }
 
 /// A surface point as light sampling sees it: where it is, and the shading normal
-/// whose cosine the scattered light carries.
+/// whose cosine the scattered light carries, turned to the side of `wo` (the only
+/// side a reflective BSDF takes light from; light sampling is only done at those).
 #[inline]
-fn receiver(surface: &SurfacePoint) -> Receiver {
+fn receiver(surface: &SurfacePoint, wo: Vec3) -> Receiver {
     Receiver {
         p: surface.p,
-        n: surface.ns,
+        n: reflecting_normal(surface, wo),
     }
 }
 
@@ -335,11 +336,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
                 IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
                 IntegratorKind::Mis => match guide {
-                    Some(guide) => self.guided_step(&bsdf, wo, guide, receiver(&surface), rng),
+                    Some(guide) => self.guided_step(&bsdf, wo, guide, receiver(&surface, wo), rng),
                     None => {
                         let pending = EmissionWeight::Mis {
                             bsdf_pdf: 0.0,
-                            from: receiver(&surface),
+                            from: receiver(&surface, wo),
                         };
                         self.bsdf_step(&bsdf, wo, pending, rng)
                     }
@@ -445,7 +446,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !self.lights.may_light(surface.p) {
             return Vec3::ZERO;
         }
-        let Some(light) = self.lights.sample(receiver(surface), rng) else {
+        let Some(light) = self.lights.sample(receiver(surface, wo), rng) else {
             return Vec3::ZERO;
         };
         let (f, bsdf_pdf) = bsdf.eval_pdf(wo, light.dir);
@@ -529,7 +530,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng);
         }
         let light_pdf = LightPdf {
-            at: receiver(surface),
+            at: receiver(surface, wo),
             lights: &self.lights,
         };
         let mixture = MixturePdf::even(bsdf_pdf, light_pdf);

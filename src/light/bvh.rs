@@ -72,20 +72,33 @@ impl LightBounds {
     }
 
     /// An estimate of the light these emitters send to a receiver at `p` with unit
-    /// normal `n` (zero: no normal term): power over squared distance to the centre
-    /// (at least a quarter of the bounding sphere's radius, squared), times a bound on
-    /// the emitters' cosine towards `p` and on the receiver's |cosine| towards them.
-    /// 0 only when no emitter inside can shine on `p`: every emitter point lies in
-    /// the box's bounding sphere, which `p` sees within the angle θ_b of its centre,
-    /// so the angle between an emitter normal and the direction to `p` is at least
-    /// `θ_w − θ_o − θ_b` (θ_w: between the cone's axis and the direction from the
-    /// centre to `p`; θ_o: the cone's half-angle), and one-sided emitters send nothing
-    /// beyond 90°.
+    /// normal `n` (zero: no normal term; else the side it receives light on): power
+    /// over squared distance to the centre (at least a quarter of the bounding
+    /// sphere's radius, squared, where `p` is inside that sphere), times a bound on the
+    /// emitters' cosine towards `p` and on the receiver's cosine towards them.
+    /// 0 only when no emitter inside can shine on `p`:
+    /// - every emitter point lies in the box's bounding sphere, which `p` sees within
+    ///   the angle θ_b of its centre, so the angle between an emitter normal and the
+    ///   direction to `p` is at least `θ_w − θ_o − θ_b` (θ_w: between the cone's axis
+    ///   and the direction from the centre to `p`; θ_o: the cone's half-angle), and
+    ///   one-sided emitters send nothing beyond 90°; likewise the receiver takes
+    ///   nothing from beyond 90° of its normal;
+    /// - the plane tests, which need no sphere and so hold where `p` is inside it (a
+    ///   desk's lamps seen from the desk, a wall's from the wall): an emitter at `q`
+    ///   with normal `m` lights `p` only if `(p − q)·m > 0`, and over the box and the
+    ///   cone that is at most `(p − c)·a + Σ|a_k| h_k + sin θ_o · (|p − c| + r)` (`c`,
+    ///   `h`: the box's centre and half extent; `a`: the cone's axis; `r`: the
+    ///   sphere's radius), exact for coplanar emitters; and the receiver takes light
+    ///   from `q` only if `(q − p)·n > 0`, at most `(c − p)·n + Σ|n_k| h_k` over the box.
+    ///
+    /// Where `p` is in front of every emitter's plane but close to them, the estimate
+    /// is still far above what they send (the bounds are loose at grazing angles):
+    /// that costs samples, never bias.
     #[inline]
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
         let mut lanes = Lanes::EMPTY;
         lanes.set(0, self);
-        lanes.importance(p, n)[0]
+        lanes.importance(&Query::new(p, n))[0]
     }
 
     /// The surface area orientation heuristic's cost of these bounds: power, times the
@@ -108,7 +121,9 @@ impl LightBounds {
 fn cone_union((a, cos_a): (Vec3, f32), (b, cos_b): (Vec3, f32)) -> (Vec3, f32) {
     let theta_a = cos_a.clamp(-1.0, 1.0).acos();
     let theta_b = cos_b.clamp(-1.0, 1.0).acos();
-    let theta_d = a.dot(b).clamp(-1.0, 1.0).acos();
+    // From the sine and cosine: `acos` of a dot product near 1 is off by up to 3e-4
+    // for equal normals, which would open their cone and blunt the plane tests.
+    let theta_d = a.cross(b).length().atan2(a.dot(b));
     if (theta_d + theta_b).min(PI) <= theta_a {
         return (a, cos_a);
     }
@@ -131,12 +146,18 @@ fn cone_union((a, cos_a): (Vec3, f32), (b, cos_b): (Vec3, f32)) -> (Vec3, f32) {
 #[derive(Clone, Copy, Debug)]
 struct Lanes {
     center: [Vec4; 3],
+    /// Half the box's extent along x, y, z.
+    half: [Vec4; 3],
     radius: Vec4,
     radius_squared: Vec4,
     axis: [Vec4; 3],
+    /// How far the box reaches along the cone's axis from its centre: `Σ |a_k| half_k`.
+    axis_reach: Vec4,
     cos_o: Vec4,
     sin_o: Vec4,
     power: Vec4,
+    /// Rounding allowance of the plane tests: a few ulps of the box's coordinates.
+    slack: Vec4,
 }
 
 /// `√x` in each lane.
@@ -167,21 +188,28 @@ impl Lanes {
     /// No children: every lane empty.
     const EMPTY: Lanes = Lanes {
         center: [Vec4::ZERO; 3],
+        half: [Vec4::ZERO; 3],
         radius: Vec4::ZERO,
         radius_squared: Vec4::ZERO,
         axis: [Vec4::ZERO, Vec4::ZERO, Vec4::ONE],
+        axis_reach: Vec4::ZERO,
         cos_o: Vec4::ONE,
         sin_o: Vec4::ZERO,
         power: Vec4::ZERO,
+        slack: Vec4::ZERO,
     };
 
     /// Puts `b` in lane `lane`.
     fn set(&mut self, lane: usize, b: &LightBounds) {
         let center = b.centroid();
+        let half = 0.5 * (b.hi - b.lo);
         for k in 0..3 {
             self.center[k][lane] = center[k];
+            self.half[k][lane] = half[k];
             self.axis[k][lane] = b.axis[k];
         }
+        self.axis_reach[lane] = b.axis.abs().dot(half);
+        self.slack[lane] = PLANE_SLACK * (b.lo.abs().max(b.hi.abs())).max_element();
         self.radius_squared[lane] = 0.25 * (b.hi - b.lo).length_squared();
         self.radius[lane] = self.radius_squared[lane].sqrt();
         self.cos_o[lane] = b.cos_theta;
@@ -190,8 +218,9 @@ impl Lanes {
     }
 
     /// [`LightBounds::importance`] of each lane, all four at once, branch-free.
-    #[inline]
-    fn importance(&self, p: Vec3, n: Vec3) -> Vec4 {
+    #[inline(always)]
+    fn importance(&self, q: &Query) -> Vec4 {
+        let (p, n) = (q.p, q.n);
         let to_p = [
             Vec4::splat(p.x) - self.center[0],
             Vec4::splat(p.y) - self.center[1],
@@ -210,30 +239,68 @@ impl Lanes {
         let inverse_d = sqrt4(inverse_d2);
         let sin_b = (self.radius * inverse_d).min(Vec4::ONE);
         let cos_b = sqrt4(Vec4::ONE - sin_b * sin_b);
-        let wi = to_p.map(|c| c * inverse_d);
-        let cos_w = (self.axis[0] * wi[0] + self.axis[1] * wi[1] + self.axis[2] * wi[2])
-            .clamp(-Vec4::ONE, Vec4::ONE);
+        // (p − c)·a, and (p − c)·n: the cosines θ_w and θ_i come from them, and so do
+        // the plane tests.
+        let along = self.axis[0] * to_p[0] + self.axis[1] * to_p[1] + self.axis[2] * to_p[2];
+        let facing = to_p[0] * n.x + to_p[1] * n.y + to_p[2] * n.z;
+        let cos_w = (along * inverse_d).clamp(-Vec4::ONE, Vec4::ONE);
         let sin_w = sqrt4((Vec4::ONE - cos_w * cos_w).max(Vec4::ZERO));
         let x = cos_sin_clamped_difference((cos_w, sin_w), (self.cos_o, self.sin_o));
         let (cos_emit, _) = cos_sin_clamped_difference(x, (cos_b, sin_b));
         let mut far = self.power * cos_emit.max(Vec4::ZERO) * inverse_d2;
-        if n != Vec3::ZERO {
-            let cos_i = (wi[0] * n.x + wi[1] * n.y + wi[2] * n.z)
-                .abs()
-                .min(Vec4::ONE);
+        if q.has_normal {
+            // θ_i: between n and the direction from p to the centre. One-sided: the
+            // receiver takes no light from behind its normal.
+            let cos_i = (-facing * inverse_d).clamp(-Vec4::ONE, Vec4::ONE);
             let sin_i = sqrt4((Vec4::ONE - cos_i * cos_i).max(Vec4::ZERO));
             let (cos_receive, _) = cos_sin_clamped_difference((cos_i, sin_i), (cos_b, sin_b));
             far *= cos_receive.max(Vec4::ZERO);
         }
         let importance = Vec4::select(inside, near, far);
+        // The plane tests, which hold inside the bounding sphere too (see
+        // `LightBounds::importance`), with a few ulps of the coordinates to spare. A
+        // receiver without a normal has `n_abs = 0`, `facing = 0`: it passes.
+        let slack = self.slack + Vec4::splat(q.slack);
+        let reach = self.sin_o * (d2 * inverse_d + self.radius);
+        let emits = (along + self.axis_reach + reach).cmpgt(-slack) | self.cos_o.cmple(Vec4::ZERO);
+        let above =
+            self.half[0] * q.n_abs.x + self.half[1] * q.n_abs.y + self.half[2] * q.n_abs.z - facing;
         // NaN (an empty lane at its own centre) and ∞ (p on a point light) say nothing.
-        Vec4::select(
-            importance.is_finite_mask() & importance.cmpgt(Vec4::ZERO),
-            importance,
-            Vec4::ZERO,
-        )
+        let possible = emits
+            & above.cmpgt(-slack)
+            & importance.is_finite_mask()
+            & importance.cmpgt(Vec4::ZERO);
+        Vec4::select(possible, importance, Vec4::ZERO)
     }
 }
+
+/// A receiver as the importance reads it, prepared once per light choice.
+#[derive(Clone, Copy, Debug)]
+struct Query {
+    p: Vec3,
+    n: Vec3,
+    has_normal: bool,
+    /// `|n|` per axis.
+    n_abs: Vec3,
+    /// The plane tests' rounding allowance for `p`'s coordinates.
+    slack: f32,
+}
+
+impl Query {
+    #[inline(always)]
+    fn new(p: Vec3, n: Vec3) -> Self {
+        Query {
+            p,
+            n,
+            has_normal: n != Vec3::ZERO,
+            n_abs: n.abs(),
+            slack: PLANE_SLACK * p.abs().max_element(),
+        }
+    }
+}
+
+/// Relative rounding allowance of the plane tests (about 32 ulps of f32).
+const PLANE_SLACK: f32 = 4e-6;
 
 /// A node of the tree: up to four children, each an emitter or another node.
 #[derive(Clone, Copy, Debug)]
@@ -339,9 +406,9 @@ impl LightBvh {
     /// keeps the probabilities of all emitters summing to 1 at every point. The
     /// emitter then chosen faces away from `p`, and its sample is void, as it would
     /// have been.)
-    #[inline]
-    fn child_probabilities(node: &Node, p: Vec3, n: Vec3) -> Vec4 {
-        let mut weights = node.lanes.importance(p, n);
+    #[inline(always)]
+    fn child_probabilities(node: &Node, q: &Query) -> Vec4 {
+        let mut weights = node.lanes.importance(q);
         let mut total = weights.element_sum();
         if total.is_nan() || total <= 0.0 || total.is_infinite() {
             weights = node.lanes.power;
@@ -355,10 +422,11 @@ impl LightBvh {
     /// fresh uniform.
     #[inline]
     pub fn sample(&self, p: Vec3, n: Vec3, mut u: f64) -> (usize, f32, f64) {
+        let q = Query::new(p, n);
         let mut node = &self.nodes[0];
         let mut probability = 1.0f32;
         loop {
-            let chances = Self::child_probabilities(node, p, n).to_array();
+            let chances = Self::child_probabilities(node, &q).to_array();
             // Lane k takes u in [below[k], below[k + 1]), without branches (the choice
             // is as unpredictable as u): u passes every boundary below its lane. A lane
             // without a chance spans nothing, so u passes its end with its start; the
@@ -389,14 +457,15 @@ impl LightBvh {
         let Some(mut trail) = self.trails.get(emitter).copied().flatten() else {
             return 0.0;
         };
+        let q = Query::new(p, n);
         let mut node = &self.nodes[0];
         let mut probability = 1.0f32;
         loop {
             let lane = (trail & 3) as usize;
             trail >>= 2;
-            probability *= Self::child_probabilities(node, p, n)[lane];
+            probability *= Self::child_probabilities(node, &q)[lane];
             let child = node.children[lane];
-            if child & EMITTER != 0 {
+            if child & EMITTER != 0 || probability == 0.0 {
                 return probability;
             }
             node = &self.nodes[child as usize];

@@ -38,10 +38,13 @@ const AREA_RATIO_SQUARED_CUBE_ROOT: f32 = 16.0;
 pub const MAX_SOLID_ANGLE: f64 = 6.22;
 
 /// The point a light sample is taken for: its position, and the unit shading normal
-/// whose cosine the integrand carries (zero when there is none to warp by).
+/// whose cosine the integrand carries (zero when there is none).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Receiver {
     pub p: Vec3,
+    /// Turned to the side the receiver takes light from: the light BVH gives nothing
+    /// behind it (a reflective BSDF's integrand is 0 there). The cosine warp of
+    /// solid-angle sampling takes `|cos|`, so only the BVH reads the sign.
     pub n: Vec3,
 }
 

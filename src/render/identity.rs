@@ -31,13 +31,13 @@ pub fn identity(
     // The sampler the render uses, `auto` resolved by the scene's emitters; only one
     // other than version 10's alias table is named, so that a render with that table
     // (the default with few emitters) has the identity, checkpoints and shards of
-    // versions without the choice. The four-wide BVH is `bvh4`: the binary tree's
-    // `bvh` checkpoints are refused.
+    // versions without the choice. The four-wide BVH with plane tests is `bvh4 2`:
+    // the binary tree's `bvh` and the plane-less `bvh4` checkpoints are refused.
     let light_sampler = match settings.light_sampler.resolve(scene.emitters.len()) {
         LightSamplerKind::Auto => unreachable!("resolved"),
         LightSamplerKind::Alias => None,
         LightSamplerKind::SolidAngle => Some("solid-angle"),
-        LightSamplerKind::Bvh => Some("bvh4"),
+        LightSamplerKind::Bvh => Some("bvh4 2"),
     };
     let mut pairs: Vec<(&str, String)> = vec![
         ("width", settings.width.to_string()),
