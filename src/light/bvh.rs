@@ -12,6 +12,15 @@
 //! same values, so they agree to the bit, and they sum to 1 over the emitters at any
 //! point.
 //!
+//! The importance is 0 only where no emitter below can light the receiver, and it
+//! tests that two ways: by the bounding sphere and the cone (as pbrt-v4), and by two
+//! plane tests over the box (the receiver in front of some emitter, some of the box in
+//! front of the receiver), which still hold where the receiver is inside the sphere.
+//! Lamps sit a few millimetres off walls, ceilings and desks: without the plane tests,
+//! a point of a desk was given to the lamps just above it, which face away from it
+//! (on `meshes/many-light-room.obj`, 53% of the light samples at path vertices were
+//! void, 27% with them, and the variance of direct light per vertex fell 1.5–1.8×).
+//!
 //! Nodes are four wide, their children's bounds stored lane by lane, so that the four
 //! importances of one level are one SIMD evaluation (glam's `Vec4`: SSE on x86-64).
 //! That is why: on `meshes/many-light-room.obj` (1942 emitters) a binary tree took
