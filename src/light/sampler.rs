@@ -47,8 +47,9 @@ use crate::scene::{Environment, Material, Texture, TriangleMesh};
 ///   efficiency on the Cornell boxes and 1–3% on the staircase for no gain in error;
 /// - the Cornell box with its light cut into 288 triangles: relMSE 1.09× lower but
 ///   0.70× the efficiency (one cluster of lights: the tree only adds cost);
-/// - `meshes/many-lights.obj` (512 small lights over the whole ceiling): relMSE 1.58×
-///   lower, efficiency 0.98–0.99× (within the noise of the runs);
+/// - `meshes/many-lights.obj` (512 small lights over the whole ceiling): relMSE 1.62×
+///   lower, efficiency 0.98× (1.03× before the plane tests; within the noise of the
+///   runs);
 /// - `meshes/many-light-room.obj` (1942, its ceiling lamps facing down since
 ///   lights3): relMSE 10.6× lower, efficiency 6.3× (three rounds, 160×90, 64 spp,
 ///   depth 8), and for the direct light alone (depth 2) relMSE 47× lower, efficiency
