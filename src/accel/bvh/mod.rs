@@ -35,6 +35,7 @@ use self::aabb::PrimRef;
 use self::node::{Child, Node, MAX_BLOCKS, MAX_LEAF, WIDTH};
 use self::simd::Isa;
 use self::traverse::with_stacks;
+pub(crate) use self::traverse::FAR_SLACK;
 use self::triangle::TriBlock;
 use super::{Accel, Hit, Ray};
 use crate::geometry::{HitFilter, Opaque};
