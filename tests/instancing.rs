@@ -1,3 +1,6 @@
+//! Instanced scenes against the same meshes baked into world space: images (below)
+//! and the accelerators' hits.
+//!
 //! Two-level acceleration (instances) against the same mesh baked into world space by
 //! `scene::compose`: on Embree and on the native BVH, under a rotation, non-uniform
 //! scales and two mirrors, with overlapping placements, with and without a cut-out
@@ -9,10 +12,16 @@
 use std::path::Path;
 use std::sync::Arc;
 
-use ember::accel::{Accel, Bvh, EmbreeAccel, Hit, HitFilter, Instance, InstancedBvh, Ray};
+use ember::accel::{
+    instanced_bvh, instanced_embree, Accel, Bvh, EmbreeAccel, Hit, HitFilter, Instance,
+    InstancedBvh, Ray,
+};
 use ember::embree::{BuildQuality, Device};
+use ember::image::Image;
+use ember::integrator::IntegratorKind;
+use ember::render::{render, RenderSettings};
 use ember::sampling::Rng;
-use ember::scene::{compose, load_obj, mirrors, Placement, Scene};
+use ember::scene::{compose, load_obj, mirrors, place, CameraSettings, Placement, Scene};
 use glam::{Affine3A, Quat, Vec3};
 
 /// Rays of the test.
@@ -275,4 +284,89 @@ fn bad_placements_are_refused_on_both_backends() {
     let built = EmbreeAccel::build_instanced(&device, vec![foreign], &[placed], quality);
     let message = built.err().expect("a foreign scene is refused").to_string();
     assert!(message.contains("another device"), "{message}");
+}
+
+fn settings() -> RenderSettings {
+    RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 16,
+        max_depth: 6,
+        seed: 11,
+        integrator: IntegratorKind::Mis,
+        light_sampler: Default::default(),
+        adaptive: None,
+        guiding: None,
+    }
+}
+
+/// Mean over pixels and channels of |a − b| / (|b| + 0.01).
+fn mean_relative_difference(a: &Image, b: &Image) -> f64 {
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]), f64::from(q[c]))))
+        .map(|(x, y)| (x - y).abs() / (y.abs() + 0.01))
+        .sum();
+    sum / (3 * a.pixels.len()) as f64
+}
+
+/// Σ area · |Ke| over the emissive triangles of `mesh` (the scene's light mesh).
+fn emitted_power(scene: &Scene) -> f64 {
+    let mesh = scene.light_mesh();
+    scene
+        .emitters
+        .iter()
+        .map(|&t| {
+            let m = &scene.materials[mesh.material[t as usize] as usize];
+            f64::from(mesh.area(t)) * f64::from(m.emission.element_sum())
+        })
+        .sum()
+}
+
+#[test]
+fn an_instanced_scene_renders_as_the_baked_one_on_both_backends() {
+    let box_scene = sphere_box();
+    assert!(!box_scene.mesh.normals.is_empty());
+    let instances = instances();
+    let world = baked(&box_scene, &instances);
+    let placed = place(&[&box_scene], instances.clone()).unwrap();
+    assert_eq!(placed.mesh.triangles.len(), box_scene.mesh.triangles.len());
+    // Every instance of the light is an emitter of its own, with the baked power.
+    assert_eq!(placed.emitters.len(), world.emitters.len());
+    let (p, b) = (emitted_power(&placed), emitted_power(&world));
+    assert!((p / b - 1.0).abs() < 1e-5, "placed {p}, baked {b}");
+
+    let (lo, hi) = world.bounds();
+    let camera = CameraSettings::framing(lo, hi, 50.0).camera(64, 64);
+    let s = settings();
+    let device = Device::new("").unwrap();
+    let quality = BuildQuality::High;
+    let instancing = placed.instancing.as_deref().unwrap();
+    let embree = instanced_embree(&device, &placed.mesh, instancing, quality, None).unwrap();
+    let bvh = instanced_bvh(&placed.mesh, instancing).unwrap();
+    let (wv, wt) = (&world.mesh.positions, &world.mesh.triangles);
+    let baked_embree = EmbreeAccel::build(&device, wv, wt, quality).unwrap();
+    let baked_bvh = Bvh::build(wv, wt).unwrap();
+    let placed_embree = render(&placed, &embree, &camera, &s, &|_| {}).0;
+    let placed_bvh = render(&placed, &bvh, &camera, &s, &|_| {}).0;
+    let world_embree = render(&world, &baked_embree, &camera, &s, &|_| {}).0;
+    let world_bvh = render(&world, &baked_bvh, &camera, &s, &|_| {}).0;
+    for (name, a, b) in [
+        ("embree", &placed_embree, &world_embree),
+        ("bvh", &placed_bvh, &world_bvh),
+        ("embree against bvh", &placed_embree, &placed_bvh),
+    ] {
+        let d = mean_relative_difference(a, b);
+        eprintln!("{name}: mean relative difference {d:.2e}");
+        assert!(d < 1e-3, "{name}: mean relative difference {d:.2e}");
+    }
+    let mean: f64 = placed_embree
+        .pixels
+        .iter()
+        .map(|p| f64::from(p.element_sum()))
+        .sum::<f64>()
+        / placed_embree.pixels.len() as f64;
+    assert!(mean > 0.01, "mean {mean}: the placed boxes are dark");
 }

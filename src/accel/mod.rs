@@ -4,10 +4,12 @@
 pub mod bvh;
 mod embree;
 mod instanced;
+mod scene;
 
 pub use self::bvh::{Bvh, BvhError, FilteredBvh};
 pub use self::embree::{EmbreeAccel, EmbreeBackend};
 pub use self::instanced::InstancedBvh;
+pub use self::scene::{instanced_bvh, instanced_embree, instanced_filtered_bvh};
 
 pub use crate::geometry::{Hit, HitFilter, Instance, InstanceError, Opaque, Ray};
 

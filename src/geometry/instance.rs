@@ -19,7 +19,7 @@ pub struct Instance {
 }
 
 /// Why a list of instances cannot be placed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum InstanceError {
     #[error("instance {instance} names mesh {mesh}, but there are {meshes} meshes")]
     UnknownMesh {

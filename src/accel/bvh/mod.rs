@@ -47,6 +47,8 @@ pub enum BvhError {
     IndexOutOfRange { index: u32, vertices: usize },
     #[error("{0} triangles is more than the native BVH can index ({MAX_BLOCKS})")]
     TooManyTriangles(usize),
+    #[error(transparent)]
+    Instance(#[from] crate::geometry::InstanceError),
 }
 
 /// A wide bounding volume hierarchy over a triangle mesh.
