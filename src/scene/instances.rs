@@ -155,10 +155,9 @@ impl Instancing {
         };
         let (mut u, mut v) = (hit.u, hit.v);
         if frame.mirrored {
-            let swap = |[a, b, c]: [Vec3; 3]| [a, c, b];
-            corners.p = swap(corners.p);
-            corners.n = corners.n.map(swap);
-            corners.uv = corners.uv.map(|[a, b, c]| [a, c, b]);
+            corners.p = swap_last(corners.p);
+            corners.n = corners.n.map(swap_last);
+            corners.uv = corners.uv.map(swap_last);
             (u, v) = (v, u);
         }
         let mut surface = corners.surface(u, v, mesh.material[hit.prim as usize]);
@@ -183,6 +182,11 @@ impl Instancing {
                 (lo.min(l.into()), hi.max(h.into()))
             })
     }
+}
+
+/// The corners in the order a mirrored copy winds them: the second and third swapped.
+fn swap_last<T>([a, b, c]: [T; 3]) -> [T; 3] {
+    [a, c, b]
 }
 
 /// A bound on the rounding error of `transform` applied to points whose coordinates
