@@ -27,7 +27,7 @@ if [[ -f $rig ]]; then
   bash "$rig" "$PWD/.embree4" >/dev/null
   EMBREE_DIR="$PWD/.embree4" cargo test --release --test embree_analytic --test embree_wrapper --test accel_agreement \
     --test render --test robustness --test aov --test adaptive --test denoise --test integrators --test determinism \
-    --test cutouts --test texture_maps --test untrusted
+    --test cutouts --test texture_maps --test untrusted --test instancing
 else
   echo "== Embree 4 leg skipped: $rig not found" >&2
 fi

@@ -53,6 +53,7 @@ f 1/1/1 2/2/1 3/3/1\nf 2//2 4//2 3//2\nf 1/1 2/2 3/3\n";
             prim,
             u: 0.2,
             v: 0.3,
+            instance: 0,
         };
         let s = scene.mesh.surface(&hit);
         assert!(
@@ -67,6 +68,7 @@ f 1/1/1 2/2/1 3/3/1\nf 2//2 4//2 3//2\nf 1/1 2/2 3/3\n";
         prim: 0,
         u: 0.25,
         v: 0.5,
+        instance: 0,
     };
     let s = scene.mesh.surface(&hit);
     assert!((s.uv - Vec2::new(0.25, 0.5)).length() < 1e-6);
@@ -146,6 +148,7 @@ fn textures_are_read_as_srgb_and_looked_up_by_uv() {
         prim: 0,
         u: 0.3,
         v: 0.3,
+        instance: 0,
     };
     let albedo = scene.albedo(&scene.mesh.surface(&hit));
     assert!((albedo.x - 0.5029).abs() < 2e-3, "{albedo}");

@@ -122,6 +122,7 @@ fn assert_tilt_matches(n: Vec3, turn: glam::Quat) {
         prim: 0,
         u: 0.25,
         v: 0.5,
+        instance: 0,
     };
     let ns = mapped.surface(&hit).ns;
     assert!((ns - n).length() < 1e-5, "{ns} vs {n}");
@@ -195,6 +196,7 @@ fn a_height_ramp_tilts_the_normal_by_its_known_slope() {
                 prim: 0,
                 u,
                 v,
+                instance: 0,
             };
             let s = scene.surface(&hit);
             assert!(s.uv.cmpgt(glam::Vec2::splat(0.05)).all());
@@ -239,6 +241,7 @@ fn normals_mapped_below_the_surface_let_no_light_through() {
         prim: 0,
         u: 0.3,
         v: 0.3,
+        instance: 0,
     });
     assert!(s.ns.dot(s.ng) > 0.0);
     let mut rng = Rng::seeded(3);
@@ -278,6 +281,7 @@ fn centre(scene: &Scene) -> ember::scene::SurfacePoint {
         prim: 0,
         u: 0.3,
         v: 0.3,
+        instance: 0,
     })
 }
 

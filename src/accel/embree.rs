@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::{Accel, Hit, HitFilter, Ray};
+use super::{Accel, Hit, HitFilter, Instance, Ray};
 use crate::embree::{BuildQuality, Device, EmbreeError, Scene};
 
 /// A triangle mesh committed to Embree, which reads the mesh's own arrays for `'m`
@@ -55,6 +55,20 @@ impl<'m> EmbreeBackend<'m> {
     ) -> Result<Self, EmbreeError> {
         Ok(EmbreeBackend {
             scene: device.build_shared_triangle_scene(vertices, triangles, quality, filter)?,
+        })
+    }
+
+    /// A top-level scene placing `meshes` (each built on `device`) by `instances`: see
+    /// [`Device::build_instanced_scene`].
+    pub fn build_instanced(
+        device: &Device,
+        meshes: Vec<EmbreeBackend<'m>>,
+        instances: &[Instance],
+        quality: BuildQuality,
+    ) -> Result<Self, EmbreeError> {
+        let scenes = meshes.into_iter().map(|m| m.scene).collect();
+        Ok(EmbreeBackend {
+            scene: device.build_instanced_scene(scenes, instances, quality)?,
         })
     }
 

@@ -3,11 +3,15 @@
 
 pub mod bvh;
 mod embree;
+mod instanced;
+mod scene;
 
 pub use self::bvh::{Bvh, BvhError, FilteredBvh};
 pub use self::embree::{EmbreeAccel, EmbreeBackend};
+pub use self::instanced::InstancedBvh;
+pub use self::scene::{instanced_bvh, instanced_embree, instanced_filtered_bvh};
 
-pub use crate::geometry::{Hit, HitFilter, Opaque, Ray};
+pub use crate::geometry::{Hit, HitFilter, Instance, InstanceError, Opaque, Ray};
 
 /// Which structure answers the ray queries (`ember render --accel`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

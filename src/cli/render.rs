@@ -19,7 +19,9 @@ use super::{
     parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
     ToneArgs,
 };
-use ember::accel::{Accel, AccelKind, Bvh, EmbreeBackend};
+use ember::accel::{
+    instanced_bvh, instanced_embree, instanced_filtered_bvh, Accel, AccelKind, Bvh, EmbreeBackend,
+};
 use ember::embree::{BuildQuality, Device};
 use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
@@ -32,7 +34,8 @@ use ember::render::{
     self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
 };
 use ember::scene::{
-    load_obj, Camera, CameraSettings, Environment, Lens, LoadReport, Scene, SceneFile,
+    load_obj, Camera, CameraSettings, Environment, Instancing, Lens, LoadReport, Opacity, Scene,
+    SceneFile,
 };
 
 /// clap's ranges take `i64`.
@@ -549,6 +552,9 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
         Some(v) if v == "1" => None,
         _ => loaded.scene.opacity(),
     };
+    if let Some(instancing) = &loaded.scene.instancing {
+        return render_instanced(&plan, &loaded, &pool, instancing, cutouts, &timeline);
+    }
     // One generic render per backend (and per filter): the match picks the type, no
     // dynamic dispatch.
     match plan.accel {
@@ -575,6 +581,44 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
                 None => finish_render(&plan, &loaded, &pool, &bvh, &timeline),
             }
         }
+    }
+}
+
+/// [`finish_render`] of an instanced scene, on the two-level structure of its backend.
+fn render_instanced(
+    plan: &RenderPlan,
+    loaded: &LoadedScene,
+    pool: &rayon::ThreadPool,
+    instancing: &Instancing,
+    cutouts: Option<Arc<Opacity>>,
+    timeline: &Timeline,
+) -> Result<ExitCode> {
+    let mesh = &loaded.scene.mesh;
+    match plan.accel {
+        AccelKind::Embree => {
+            let device = Device::new(&embree_config(plan.threads))?;
+            if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
+                device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
+            }
+            let quality = BuildQuality::High;
+            let accel = instanced_embree(&device, mesh, instancing, quality, cutouts.as_ref())
+                .context("cannot build the Embree scene")?;
+            finish_render(plan, loaded, pool, &accel, timeline)
+        }
+        AccelKind::Bvh => match cutouts {
+            Some(opacity) => {
+                let bvh = pool
+                    .install(|| instanced_filtered_bvh(mesh, instancing, &opacity))
+                    .context("cannot build the native BVH")?;
+                finish_render(plan, loaded, pool, &bvh, timeline)
+            }
+            None => {
+                let bvh = pool
+                    .install(|| instanced_bvh(mesh, instancing))
+                    .context("cannot build the native BVH")?;
+                finish_render(plan, loaded, pool, &bvh, timeline)
+            }
+        },
     }
 }
 

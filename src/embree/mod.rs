@@ -10,6 +10,7 @@
 
 mod direct;
 mod filter;
+mod instance;
 mod sys;
 
 pub use direct::{raw_rays, RawRay};
@@ -434,6 +435,7 @@ impl Device {
             device: self.clone(),
             bytes: 0,
             filter: None,
+            placed: Vec::new(),
             shared: PhantomData,
         };
         // SAFETY: `raw` is a live scene, not committed yet.
@@ -626,6 +628,10 @@ pub struct Scene<'m> {
     /// (the callback reaches it through the geometry's user data); dropped after
     /// `Drop::drop` has released the scene.
     filter: Option<Arc<dyn Any + Send + Sync>>,
+    /// The scenes this one places by instance geometries, if it is a top-level scene
+    /// (see [`Device::build_instanced_scene`]): kept alive with their filters for as
+    /// long as this scene can be queried, and released after it.
+    placed: Vec<Scene<'m>>,
     /// The shared vertex and index arrays, borrowed for as long as the scene lives.
     shared: PhantomData<&'m [u8]>,
 }
@@ -675,6 +681,17 @@ fn raw_ray(ray: &Ray) -> sys::RTCRay {
     // the order of these rows (48 bytes, the size `transmute` checks); every bit
     // pattern is a valid f32 or u32, and Vec4's lanes are plain f32.
     unsafe { std::mem::transmute::<[glam::Vec4; 3], sys::RTCRay>(rows) }
+}
+
+/// The instance a hit reports: Embree's `instID[0]`, which is the instance geometry's
+/// id in a top-level scene and invalid in a scene of one mesh (instance 0).
+#[inline]
+fn instance_of(inst_id: u32) -> u32 {
+    if inst_id == INVALID_ID {
+        0
+    } else {
+        inst_id
+    }
 }
 
 fn empty_hit() -> sys::RTCHit {
@@ -751,6 +768,7 @@ impl Scene<'_> {
             prim: rayhit.hit.primID,
             u: rayhit.hit.u,
             v: rayhit.hit.v,
+            instance: instance_of(rayhit.hit.instID[0]),
         })
     }
 
@@ -819,6 +837,7 @@ impl Scene<'_> {
                 prim: packet.hit.primID[lane],
                 u: packet.hit.u[lane],
                 v: packet.hit.v[lane],
+                instance: instance_of(packet.hit.instID[0][lane]),
             });
         }
     }

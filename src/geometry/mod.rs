@@ -8,8 +8,10 @@
 //! same scene gives the same image at any scale and any distance from the origin.
 
 mod filter;
+mod instance;
 
 pub use filter::{HitFilter, Opaque};
+pub use instance::{object_ray, object_transforms, Instance, InstanceError};
 
 use glam::Vec3;
 
@@ -48,15 +50,20 @@ impl Ray {
     }
 }
 
-/// The nearest hit of a ray: distance, the scene's triangle index and the barycentric
+/// The nearest hit of a ray: distance, the triangle index in its mesh, the barycentric
 /// coordinates of the hit point, `p = (1 - u - v) * v0 + u * v1 + v * v2` (Embree's
-/// convention). Everything else (normals, UVs, material) is looked up in the scene.
+/// convention), and the instance (placement) of that mesh. Everything else (normals,
+/// UVs, material) is looked up in the scene.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
     pub t: f32,
     pub prim: u32,
     pub u: f32,
     pub v: f32,
+    /// Which [`Instance`] of a two-level structure was hit (its index in the list the
+    /// structure was built from), so that shading can take the surface to the world;
+    /// 0 in a structure of one mesh in world space.
+    pub instance: u32,
 }
 
 /// A point on a surface with a bound on its rounding error, and the unit geometric

@@ -188,8 +188,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             accel,
             max_depth,
             kind,
-            lights: LightSampler::with_kind(&scene.mesh, &scene.materials, &scene.textures, lights)
-                .with_sky(scene.sky.clone(), scene.bounding_radius()),
+            lights: LightSampler::with_kind(
+                scene.light_mesh(),
+                &scene.materials,
+                &scene.textures,
+                lights,
+            )
+            .with_sky(scene.sky.clone(), scene.bounding_radius()),
             guide: None,
         }
     }
@@ -385,7 +390,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         self.scene.emitted(surface)
-            * how.weight(|from| self.lights.pdf_hit(from, hit.prim, dir, hit.t))
+            * how.weight(|from| {
+                let light = self.scene.light_hit(*hit);
+                self.lights.pdf_hit(from, light.prim, dir, hit.t)
+            })
     }
 
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
@@ -536,10 +544,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mixture = MixturePdf::even(bsdf_pdf, light_pdf);
         let drawn = mixture.generate(rng)?;
         let next = self.trace(&surface.origin().spawn(drawn.dir), count);
-        if !drawn.reached(next.as_ref()) {
+        let light = next.map(|hit| self.scene.light_hit(hit));
+        if !drawn.reached(light.as_ref()) {
             return None;
         }
-        let density = mixture.value(drawn.dir, next.as_ref());
+        let density = mixture.value(drawn.dir, light.as_ref());
         if density.is_nan() || density <= 0.0 {
             return None;
         }

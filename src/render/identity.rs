@@ -272,5 +272,18 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     if let Some(sky) = &scene.sky {
         h.u32s(sky.identity_words());
     }
+    // Only instanced scenes hash their placements, so that plain scenes keep the
+    // fingerprint they had before instancing existed.
+    if let Some(instancing) = &scene.instancing {
+        h.len(instancing.parts.len());
+        for part in &instancing.parts {
+            h.u32s([part.triangles.start, part.triangles.end]);
+        }
+        h.len(instancing.instances.len());
+        for instance in &instancing.instances {
+            h.u32s([instance.mesh]);
+            h.f32s(instance.transform.to_cols_array());
+        }
+    }
     h.0.digest()
 }

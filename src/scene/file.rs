@@ -15,8 +15,8 @@ use glam::{Affine3A, Mat4, Quat, Vec3};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::compose::{compose, Placement};
-use super::{load_obj, LoadReport, Scene};
+use super::{load_obj, place, LoadReport, Scene};
+use crate::geometry::Instance;
 
 /// A scene-file error: one line naming the file, the line and column, and the key.
 #[derive(Debug, thiserror::Error)]
@@ -339,9 +339,10 @@ impl SceneFile {
         ))
     }
 
-    /// Loads each OBJ once and places it wherever the file says, baked into one scene.
-    /// A file of one OBJ placed once without a transform gives that OBJ's scene as
-    /// `ember render OBJ` loads it, value for value.
+    /// Loads each OBJ once and places it wherever the file says, by instances: the
+    /// scene holds each OBJ's mesh once (see [`super::place`]). A file of one OBJ placed
+    /// once without a transform gives that OBJ's scene as `ember render OBJ` loads it,
+    /// value for value.
     pub fn load_scene(&self) -> Result<(Scene, LoadReport), SceneFileError> {
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
@@ -362,15 +363,18 @@ impl SceneFile {
             report.warnings.extend(r.warnings.iter().cloned());
         }
         self.check_memory(&loaded)?;
-        let placements: Vec<Placement<'_>> = self
+        let scenes: Vec<&Scene> = loaded.iter().map(|(scene, _)| scene).collect();
+        let instances = self
             .placements
             .iter()
-            .map(|p| Placement {
-                scene: &loaded[p.obj].0,
+            .map(|p| Instance {
+                mesh: p.obj as u32,
                 transform: p.transform,
             })
             .collect();
-        let scene = compose(&placements);
+        // The transforms were checked as they were read: finite, non-zero scales.
+        let scene =
+            place(&scenes, instances).map_err(|e| self.error(0..0, "instance", &e.to_string()))?;
         report.triangles = scene.mesh.triangles.len();
         report.vertices = scene.mesh.positions.len();
         report.emitters = scene.emitters.len();
@@ -379,24 +383,30 @@ impl SceneFile {
 }
 
 impl SceneFile {
-    /// Refuses, before baking, a placed scene whose mesh would not fit in memory: every
-    /// placement is a copy of its OBJ's vertices (position, normal, uv) and triangles
-    /// (indices, material), twice over for the accelerator built on it.
+    /// Refuses, before placing, a scene that would not fit in memory: each OBJ's
+    /// vertices (position, normal, uv) and triangles (indices, material) once, twice
+    /// over for the accelerator built on it, and for each placement its transforms and
+    /// its world-space copies of the OBJ's emissive triangles.
     fn check_memory(&self, loaded: &[(Scene, LoadReport)]) -> Result<(), SceneFileError> {
-        let bytes: u64 = self
-            .placements
+        let meshes: u64 = loaded
             .iter()
-            .map(|p| {
-                let mesh = &loaded[p.obj].0.mesh;
+            .map(|(scene, _)| {
+                let mesh = &scene.mesh;
                 (mesh.positions.len() as u64 * 32 + mesh.triangles.len() as u64 * 16) * 2
             })
+            .sum();
+        let placements: u64 = self
+            .placements
+            .iter()
+            .map(|p| 256 + loaded[p.obj].0.emitters.len() as u64 * 64)
             .sum();
         let what = format!(
             "{} placements of {} OBJs",
             self.placements.len(),
             self.objs.len()
         );
-        crate::limits::check_fits(&what, bytes).map_err(|e| self.error(0..0, "instance", &e))
+        crate::limits::check_fits(&what, meshes + placements)
+            .map_err(|e| self.error(0..0, "instance", &e))
     }
 }
 

@@ -98,25 +98,55 @@ impl TriangleMesh {
     }
 
     /// The surface at a hit: position, normals, texture coordinates and material.
+    #[inline]
     pub fn surface(&self, hit: &Hit) -> SurfacePoint {
-        let [ia, ib, ic] = self.triangles[hit.prim as usize].map(|i| i as usize);
-        let (u, v) = (hit.u, hit.v);
+        self.corners(hit.prim)
+            .surface(hit.u, hit.v, self.material[hit.prim as usize])
+    }
+
+    /// Triangle `prim`'s corners with the attributes the mesh has.
+    #[inline(always)]
+    pub fn corners(&self, prim: u32) -> Corners {
+        let [ia, ib, ic] = self.triangles[prim as usize].map(|i| i as usize);
+        let corner = |values: &[Vec3]| [values[ia], values[ib], values[ic]];
+        Corners {
+            p: corner(&self.positions),
+            n: (!self.normals.is_empty()).then(|| corner(&self.normals)),
+            uv: (!self.uvs.is_empty()).then(|| [self.uvs[ia], self.uvs[ib], self.uvs[ic]]),
+        }
+    }
+}
+
+/// A triangle's corners as shading reads them, in winding order: positions, shading
+/// normals (`None` when the mesh has none) and texture coordinates (`None`: a point's
+/// barycentrics are its coordinates).
+#[derive(Clone, Copy, Debug)]
+pub struct Corners {
+    pub p: [Vec3; 3],
+    pub n: Option<[Vec3; 3]>,
+    pub uv: Option<[Vec2; 3]>,
+}
+
+impl Corners {
+    /// The surface at barycentrics `(u, v)` (the weights of the second and third
+    /// corners), of material `material`.
+    #[inline(always)]
+    pub fn surface(&self, u: f32, v: f32, material: u32) -> SurfacePoint {
         let w = 1.0 - u - v;
-        let [a, b, c] = [self.positions[ia], self.positions[ib], self.positions[ic]];
+        let [a, b, c] = self.p;
         let p = w * a + u * b + v * c;
         let ng = (b - a).cross(c - a).normalize_or_zero();
         let mut ns = ng;
-        if !self.normals.is_empty() {
-            let n = w * self.normals[ia] + u * self.normals[ib] + v * self.normals[ic];
+        if let Some([na, nb, nc]) = self.n {
+            let n = w * na + u * nb + v * nc;
             if let Some(n) = n.try_normalize() {
                 // Keep the shading normal on the geometric side, so "front" means one thing.
                 ns = if n.dot(ng) < 0.0 { -n } else { n };
             }
         }
-        let uv = if self.uvs.is_empty() {
-            Vec2::new(u, v)
-        } else {
-            w * self.uvs[ia] + u * self.uvs[ib] + v * self.uvs[ic]
+        let uv = match self.uv {
+            None => Vec2::new(u, v),
+            Some([ta, tb, tc]) => w * ta + u * tb + v * tc,
         };
         SurfacePoint {
             p,
@@ -124,7 +154,7 @@ impl TriangleMesh {
             ng,
             ns,
             uv,
-            material: self.material[hit.prim as usize],
+            material,
         }
     }
 }

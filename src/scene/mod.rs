@@ -6,6 +6,7 @@ mod camera;
 mod compose;
 mod environment;
 mod file;
+mod instances;
 mod material;
 mod mesh;
 mod normal_maps;
@@ -22,6 +23,7 @@ pub use camera::{Camera, CameraSettings, Lens};
 pub use compose::{compose, mirrors, Placement};
 pub use environment::{Environment, SkySample};
 pub use file::{ObjFile, Placed, SceneFile, SceneFileError, Setting};
+pub use instances::{place, Instancing, MeshPart};
 pub use material::{
     alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
 };
@@ -32,7 +34,7 @@ pub use obj::{
 };
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
-pub use opacity::{coin, Opacity};
+pub use opacity::{coin, Opacity, PartOpacity};
 pub use tangents::mikktspace_tangents;
 pub use texture::{Texels, Texture, TextureKind};
 
@@ -98,11 +100,15 @@ pub struct Scene {
     /// Opacity maps of the materials' cut-outs (`Material::opacity_map`), shared with
     /// the accelerator's [`Opacity`] filter.
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    /// Indices of the triangles whose material emits.
+    /// Indices of the triangles whose material emits: of `mesh`, or of the instanced
+    /// emitters' world-space mesh ([`Instancing::lights`]) in an instanced scene.
     pub emitters: Vec<u32>,
     /// Radiance arriving where rays leave the scene: an environment map or a uniform
     /// sky; none (black) by default.
     pub sky: Option<Arc<Environment>>,
+    /// Where the distinct meshes of `mesh` stand, when they are placed by instances
+    /// rather than baked into world space (see [`place`]); `None` for a plain scene.
+    pub instancing: Option<Arc<Instancing>>,
 }
 
 impl Scene {
@@ -127,6 +133,7 @@ impl Scene {
             alpha_maps: Vec::new(),
             emitters,
             sky: None,
+            instancing: None,
         }
     }
 
@@ -139,9 +146,60 @@ impl Scene {
     }
 
     /// The surface at a hit, with its shading normal perturbed by the material's bump
-    /// or normal map.
+    /// or normal map; in world space, when the hit is on an instance.
     #[inline]
     pub fn surface(&self, hit: &Hit) -> SurfacePoint {
+        match &self.instancing {
+            None => self.object_surface(hit),
+            Some(instancing) => self.instance_surface(instancing, hit),
+        }
+    }
+
+    /// The surface at a hit on an instance, in the world. A bump or normal map is
+    /// applied in object space, where its tangents are, and the normal it gives is
+    /// taken to the world by the normal matrix.
+    fn instance_surface(&self, instancing: &Instancing, hit: &Hit) -> SurfacePoint {
+        let mesh_hit = instancing.mesh_hit(hit);
+        let mut surface = instancing.world_surface(&self.mesh, &mesh_hit);
+        let maps = &self.material(&surface).maps;
+        if maps.perturbs_normal() && !self.mesh.uvs.is_empty() {
+            let object = self.object_surface(&mesh_hit);
+            let n = instancing.normal_to_world(object.ns, hit.instance);
+            surface.ns = if n.dot(surface.ng) < 0.0 {
+                (n - 1.001 * n.dot(surface.ng) * surface.ng).normalize_or(surface.ns)
+            } else {
+                n.normalize_or(surface.ns)
+            };
+        }
+        surface
+    }
+
+    /// The mesh the light sampler chooses emitters from: the scene's, or the
+    /// world-space emitters of an instanced scene.
+    pub fn light_mesh(&self) -> &TriangleMesh {
+        match &self.instancing {
+            None => &self.mesh,
+            Some(instancing) => &instancing.lights,
+        }
+    }
+
+    /// The hit as the light sampler knows it: the same hit, or in an instanced scene
+    /// with `prim` the index of its emitter in [`Scene::light_mesh`] (`u32::MAX` on a
+    /// triangle that does not emit).
+    #[inline]
+    pub fn light_hit(&self, hit: Hit) -> Hit {
+        match &self.instancing {
+            None => hit,
+            Some(instancing) => Hit {
+                prim: instancing.light_id(&hit),
+                ..hit
+            },
+        }
+    }
+
+    /// The surface at a hit on the scene's mesh, in the mesh's own space.
+    #[inline]
+    fn object_surface(&self, hit: &Hit) -> SurfacePoint {
         let mut surface = self.mesh.surface(hit);
         let maps = &self.material(&surface).maps;
         if maps.perturbs_normal() && !self.mesh.uvs.is_empty() {
@@ -254,7 +312,10 @@ impl Scene {
     }
 
     pub fn bounds(&self) -> (Vec3, Vec3) {
-        self.mesh.bounds()
+        match &self.instancing {
+            None => self.mesh.bounds(),
+            Some(instancing) => instancing.bounds(),
+        }
     }
 
     /// Radius of the sphere around the bounding box.

@@ -123,6 +123,32 @@ impl HitFilter for Opacity {
     }
 }
 
+/// The cut-outs of one part of an instanced scene's mesh ([`super::MeshPart`]), for
+/// the accelerator built on that part alone: its triangle `prim` is the scene mesh's
+/// `first + prim`. Every instance of the part shares it.
+#[derive(Debug)]
+pub struct PartOpacity {
+    opacity: Arc<Opacity>,
+    first: u32,
+}
+
+impl Opacity {
+    /// The cut-outs of the part whose triangles start at `first`.
+    pub fn part(self: &Arc<Self>, first: u32) -> Arc<PartOpacity> {
+        Arc::new(PartOpacity {
+            opacity: Arc::clone(self),
+            first,
+        })
+    }
+}
+
+impl HitFilter for PartOpacity {
+    #[inline]
+    fn accept(&self, prim: u32, u: f32, v: f32) -> bool {
+        self.opacity.accept(self.first + prim, u, v)
+    }
+}
+
 /// A uniform number in `[0, 1)` fixed by the triangle and the hit's barycentrics
 /// quantised to 2⁻¹⁶ (see the module documentation for why the point, not the ray).
 #[inline]

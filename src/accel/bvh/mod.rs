@@ -35,6 +35,7 @@ use self::aabb::PrimRef;
 use self::node::{Child, Node, MAX_BLOCKS, MAX_LEAF, WIDTH};
 use self::simd::Isa;
 use self::traverse::with_stacks;
+pub(crate) use self::traverse::FAR_SLACK;
 use self::triangle::TriBlock;
 use super::{Accel, Hit, Ray};
 use crate::geometry::{HitFilter, Opaque};
@@ -46,6 +47,8 @@ pub enum BvhError {
     IndexOutOfRange { index: u32, vertices: usize },
     #[error("{0} triangles is more than the native BVH can index ({MAX_BLOCKS})")]
     TooManyTriangles(usize),
+    #[error(transparent)]
+    Instance(#[from] crate::geometry::InstanceError),
 }
 
 /// A wide bounding volume hierarchy over a triangle mesh.

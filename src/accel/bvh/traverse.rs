@@ -245,6 +245,7 @@ impl Bvh {
             prim: block.prim[lane],
             u,
             v,
+            instance: 0,
         }
     }
 

@@ -113,6 +113,7 @@ impl Accel for ObvhsAccel {
             prim: self.bvh.primitive_indices[hit.primitive_id as usize],
             u,
             v: v.min(1.0 - u),
+            instance: 0,
         })
     }
 
@@ -218,7 +219,13 @@ impl Accel for BvhCrateAccel {
                 moller_trumbore(ray.origin, ray.dir, &shape.corners, ray.tmin, tmax)
             {
                 let prim = shape.prim;
-                best = Some(Hit { t, prim, u, v });
+                best = Some(Hit {
+                    t,
+                    prim,
+                    u,
+                    v,
+                    instance: 0,
+                });
             }
         }
         best
