@@ -275,6 +275,71 @@ impl QuadTree {
         }
     }
 
+    /// The probability mass of the rectangle `(lo, hi)` of the square (exactly: the
+    /// density is constant within each leaf cell, so this sums each cell's density
+    /// times the area the rectangle shares with it).
+    pub fn mass_in_rect(&self, (lo, hi): (Vec2, Vec2)) -> f64 {
+        self.rect_mass(0, Vec2::ZERO, 1.0, 1.0, (lo, hi))
+    }
+
+    /// [`mass_in_rect`](Self::mass_in_rect) under `node` (the square at `origin` of
+    /// side `size`, where the density so far is `density`).
+    fn rect_mass(
+        &self,
+        node: usize,
+        origin: Vec2,
+        size: f32,
+        density: f64,
+        (lo, hi): (Vec2, Vec2),
+    ) -> f64 {
+        let half = 0.5 * size;
+        let n = &self.nodes[node];
+        let mut mass = 0.0;
+        for q in 0..4 {
+            let at = origin + Vec2::new((q & 1) as f32, (q >> 1) as f32) * half;
+            let overlap = (hi.min(at + Vec2::splat(half)) - lo.max(at)).max(Vec2::ZERO);
+            let area = f64::from(overlap.x) * f64::from(overlap.y);
+            let d = density * f64::from(n.factor[q]);
+            if area <= 0.0 || d == 0.0 {
+                continue;
+            }
+            mass += match n.child[q] {
+                0 => d * area,
+                c => self.rect_mass(c as usize, at, half, d, (lo, hi)),
+            };
+        }
+        mass
+    }
+
+    /// An image of the distribution, `width × height` pixels over the square (row 0
+    /// at `cos θ = 1`, the world's +z, down to −z; columns the azimuth
+    /// `atan2(y, x)` from 0 to 2π, an equal-area map of the sphere): each pixel the
+    /// mean density per steradian over its solid angle, computed exactly, so the
+    /// pixels times their solid angle `4π / (width · height)` sum to 1.
+    pub fn density_image(&self, width: u32, height: u32) -> Vec<f32> {
+        let (w, h) = (width.max(1), height.max(1));
+        let pixel_area = 1.0 / (f64::from(w) * f64::from(h));
+        let mut out = Vec::with_capacity((w * h) as usize);
+        for row in 0..h {
+            // Row 0 is the top of the image: cos θ = 1, the square's u = 1.
+            let u = (
+                f64::from(h - row - 1) / f64::from(h),
+                f64::from(h - row) / f64::from(h),
+            );
+            for col in 0..w {
+                let v = (
+                    f64::from(col) / f64::from(w),
+                    f64::from(col + 1) / f64::from(w),
+                );
+                let lo = Vec2::new(u.0 as f32, v.0 as f32);
+                let hi = Vec2::new(u.1 as f32, v.1 as f32);
+                let mean = self.mass_in_rect((lo, hi)) / pixel_area;
+                out.push((mean / (4.0 * std::f64::consts::PI)) as f32);
+            }
+        }
+        out
+    }
+
     /// Density per steradian of the unit direction `d`.
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
