@@ -148,7 +148,7 @@ pub struct RenderArgs {
     /// non-delta vertex of pixel --guide-pixel's centre ray to FILE (.exr, .hdr or
     /// .png), 256x128 pixels of density per steradian over an equal-area map of the
     /// sphere: rows from world +z (top) to −z by equal steps of z, columns the azimuth
-    /// atan2(y, x) from 0 to 360°.
+    /// atan2(y, x) from 0 to 360° (a PNG is scaled so that its densest pixel is white).
     #[arg(long, value_name = "FILE", requires_all = ["guiding", "guide_pixel"])]
     guide_image: Option<PathBuf>,
     /// The pixel of --guide-image, X,Y (0,0 is the top-left corner).
@@ -709,16 +709,30 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
         );
         return Ok(());
     };
+    // A PNG shows the density relative to its densest pixel (white); EXR and HDR hold
+    // the density itself.
+    let densest = view.density.iter().fold(0.0f32, |a, &b| a.max(b));
+    let png = image::OutputFormat::from_path(path)? == image::OutputFormat::Png;
+    let scale = if png && densest > 0.0 {
+        1.0 / densest
+    } else {
+        1.0
+    };
     let image = image::Image {
         width: view.width,
         height: view.height,
-        pixels: view.density.iter().map(|&d| Vec3::splat(d)).collect(),
+        pixels: view
+            .density
+            .iter()
+            .map(|&d| Vec3::splat(d * scale))
+            .collect(),
     };
     image.save(path)?;
     let (p, n) = (view.p, view.normal);
     eprintln!(
         "wrote {}: the guide at pixel {x},{y}'s first vertex ({:.3},{:.3},{:.3}), normal \
-         ({:.2},{:.2},{:.2}): selection {:.1}, {:.1}% of its mass below the surface",
+         ({:.2},{:.2},{:.2}): selection {:.1}, {:.1}% of its mass below the surface, \
+         densest {densest:.3} per steradian",
         path.display(),
         p.x,
         p.y,
