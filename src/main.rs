@@ -31,7 +31,7 @@ struct Cli {
 #[derive(Subcommand)]
 enum Command {
     /// Render an OBJ scene or a scene file (.toml) to PNG (sRGB), EXR or HDR (linear).
-    Render(RenderArgs),
+    Render(Box<RenderArgs>),
     /// Merge the shard files of a split render (`render --shard I/N`) into one image.
     Merge(MergeArgs),
     /// Denoise an EXR render with Intel Open Image Denoise, guided by its albedo and
@@ -72,7 +72,7 @@ fn main() -> ExitCode {
         Command::Render(args) => {
             // A scene file's flags are read before the command line's (after `render`).
             let user: Vec<std::ffi::OsString> = std::env::args_os().skip(2).collect();
-            cli::render::run(args, &user)
+            cli::render::run(*args, &user)
         }
         Command::Merge(args) => cli::merge::run(args),
         Command::Denoise(args) => cli::denoise::run(args).map(|()| ExitCode::SUCCESS),

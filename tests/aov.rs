@@ -77,6 +77,7 @@ fn film_of(built: &Built, samples: std::ops::Range<u32>, seed: u64, max_depth: u
         checkpoint: None,
         deadline: None,
         on_pass: &|_| {},
+        on_guide: None,
     };
     let film = Film::new(SIZE, SIZE, samples);
     let camera = camera();

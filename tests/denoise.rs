@@ -207,6 +207,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
             checkpoint: None,
             deadline: None,
             on_pass: &|_| {},
+            on_guide: None,
         };
         let film = Film::new(SIZE, SIZE, 0..spp);
         render_progressive(

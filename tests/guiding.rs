@@ -15,11 +15,12 @@ use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
-    cosine_mass_in_cone, mass_in_cone, Guiding, MixtureDraw, QuadTree, Record, SdTree, VertexGuide,
-    GUIDE_PROBABILITY, MIN_SELECTION_DRAWS, SELECTION_CHOICES,
+    cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Guiding,
+    MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDE_PROBABILITY, MIN_SELECTION_DRAWS,
+    SELECTION_CHOICES,
 };
 use ember::integrator::{IntegratorKind, PathTracer};
-use ember::render::{identity, render, train_guide, RenderSettings};
+use ember::render::{guide_view, identity, render, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings};
 use glam::{Vec2, Vec3};
@@ -502,4 +503,160 @@ fn the_guiding_flag() {
     assert!(stderr.contains("guiding trained in"), "{stderr}");
     assert!(stderr.contains("1728 samples"), "3 spp at 24², {stderr}");
     assert!(Path::new(out).is_file());
+}
+
+/// `--guide-image`'s picture is the learnt density: each pixel's value times its solid
+/// angle is the tree's mass over the pixel (the exact integral over the pixel's square
+/// cells), the pixels integrate to 1 over the sphere, and the guide's own draws fall
+/// into the pixels as often as the image says (chi-square).
+#[test]
+fn guide_image_shows_the_learnt_density() {
+    let tree = trained_tree();
+    let bins = 32;
+    let masses = square_bin_masses(&tree, bins);
+    let image = tree.density_image(bins as u32, bins as u32);
+    let pixel_solid_angle = 4.0 * std::f64::consts::PI / (bins * bins) as f64;
+    for row in 0..bins {
+        for col in 0..bins {
+            // Row 0 is z = +1, the square's u = 1; columns are the azimuth, v.
+            let (u_bin, v_bin) = (bins - 1 - row, col);
+            let shown = f64::from(image[row * bins + col]) * pixel_solid_angle;
+            let mass = masses[v_bin * bins + u_bin];
+            assert!(
+                (shown - mass).abs() <= 1e-6 + 1e-4 * mass,
+                "pixel {col},{row}: {shown} shown, {mass} learnt"
+            );
+        }
+    }
+    let (w, h) = (256usize, 128usize);
+    for (name, tree) in [("uniform", QuadTree::uniform()), ("trained", tree)] {
+        let image = tree.density_image(w as u32, h as u32);
+        let solid_angle = 4.0 * std::f64::consts::PI / (w * h) as f64;
+        let total: f64 = image.iter().map(|&v| f64::from(v) * solid_angle).sum();
+        assert!((total - 1.0).abs() < 1e-5, "{name}: ∫ image = {total}");
+        // Draws of the guide, binned by the image's pixels (of 16 × 8 = 128 pixels).
+        let (cw, ch) = (16usize, 8usize);
+        let coarse = tree.density_image(cw as u32, ch as u32);
+        let n = 200_000;
+        let mut counts = vec![0.0; cw * ch];
+        let mut rng = Rng::seeded(11);
+        for _ in 0..n {
+            let (u1, u2) = rng.pair();
+            let p = direction_to_square(tree.sample(Vec2::new(u1, u2)));
+            let row = ch - 1 - ((p.x * ch as f32) as usize).min(ch - 1);
+            let col = ((p.y * cw as f32) as usize).min(cw - 1);
+            counts[row * cw + col] += 1.0;
+        }
+        let expected: Vec<f64> = coarse
+            .iter()
+            .map(|&v| f64::from(v) * 4.0 * std::f64::consts::PI / (cw * ch) as f64 * n as f64)
+            .collect();
+        let (chi2, dof) = chi_square(&counts, &expected);
+        let limit = dof as f64 + 5.0 * (2.0 * dof as f64).sqrt();
+        assert!(chi2 < limit, "{name}: chi-square {chi2:.1} over {dof} dof");
+    }
+}
+
+/// Seen from a pixel of the floor of the box with a hole, the guide's picture puts its
+/// brightest pixels towards the hole, far above the uniform density, and integrates
+/// to 1.
+#[test]
+fn guide_view_from_a_floor_pixel_looks_at_the_hole() {
+    let built = box_with_hole();
+    let settings = guided_settings(64, 1, 6);
+    let tree = train(&built, &settings);
+    let camera = inside_camera(settings.width);
+    // The bottom middle of the image sees the floor.
+    let view = guide_view(
+        &built.scene,
+        &built.accel,
+        &camera,
+        &tree,
+        (32, 60),
+        settings.max_depth,
+        (128, 64),
+    )
+    .expect("the pixel sees the floor");
+    assert!(view.p.y < -0.99, "the floor, not {}", view.p);
+    assert_eq!(view.normal, Vec3::Y);
+    let solid_angle = 4.0 * std::f64::consts::PI / (128.0 * 64.0);
+    let total: f64 = view
+        .density
+        .iter()
+        .map(|&v| f64::from(v) * solid_angle)
+        .sum();
+    assert!((total - 1.0).abs() < 1e-5, "∫ view = {total}");
+    // The picture's mass within 12° of the hole (pixels by their centre's direction),
+    // against the cosine density's there, as the test above does with the tree.
+    let hole = (Vec3::new(0.125, 1.0, 0.125) - view.p).normalize();
+    let half_angle = 12f32.to_radians();
+    let mut towards_hole = 0.0;
+    for (i, &v) in view.density.iter().enumerate() {
+        let (row, col) = (i / 128, i % 128);
+        let centre = Vec2::new((63 - row) as f32 + 0.5, col as f32 + 0.5) / Vec2::new(64.0, 128.0);
+        if square_to_direction(centre).dot(hole) >= half_angle.cos() {
+            towards_hole += f64::from(v) * solid_angle;
+        }
+    }
+    let cosine = cosine_mass_in_cone(Vec3::Y, hole, half_angle);
+    eprintln!(
+        "towards the hole {towards_hole:.4} (cosine {cosine:.4}), below {:.3}",
+        view.below
+    );
+    assert!(
+        towards_hole > 2.0 * cosine,
+        "{towards_hole} towards the hole"
+    );
+    assert!(
+        view.below < 0.5,
+        "{} of the mass below the floor",
+        view.below
+    );
+}
+
+/// `--guide-image` writes the picture of the guide at a pixel; a pixel outside the
+/// image is refused in one line before any work, and nothing is written.
+#[test]
+fn the_guide_image_flag() {
+    let dir = tempfile::tempdir().unwrap();
+    let (out, guide) = (dir.path().join("guided.png"), dir.path().join("guide.exr"));
+    let (out, guide) = (out.to_str().unwrap(), guide.to_str().unwrap());
+    let common = [
+        "render",
+        "meshes/CornellBox-Original.obj",
+        "-o",
+        out,
+        "--width",
+        "24",
+        "--height",
+        "24",
+        "--spp",
+        "2",
+        "--guiding",
+        "--guiding-iterations",
+        "2",
+        "--guide-image",
+        guide,
+    ];
+    let refused = ember(&[&common[..], &["--guide-pixel", "24,3"]].concat());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(!refused.status.success());
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.starts_with("error:") && stderr.contains("--guide-pixel"),
+        "{stderr}"
+    );
+    assert!(!Path::new(out).exists() && !Path::new(guide).exists());
+    let written = ember(&[&common[..], &["--guide-pixel", "12,20"]].concat());
+    let stderr = String::from_utf8_lossy(&written.stderr);
+    assert!(written.status.success(), "{stderr}");
+    let image = ember::image::Image::load(Path::new(guide)).expect("the guide image");
+    assert_eq!((image.width, image.height), (256, 128));
+    let solid_angle = 4.0 * std::f64::consts::PI / (256.0 * 128.0);
+    let total: f64 = image
+        .pixels
+        .iter()
+        .map(|p| f64::from(p.x) * solid_angle)
+        .sum();
+    assert!((total - 1.0).abs() < 1e-4, "∫ image = {total}");
 }

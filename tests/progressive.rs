@@ -245,6 +245,7 @@ fn periodic_checkpoints_are_whole_files() {
         }),
         deadline: None,
         on_pass: &|_| {},
+        on_guide: None,
     };
     let progress = Film::new(settings.width, settings.height, 0..settings.spp);
     let (progress, _) =

@@ -133,6 +133,7 @@ fn merged_films_equal_one_process_at_any_number_of_shards() {
         checkpoint: None,
         deadline: None,
         on_pass: &|_| {},
+        on_guide: None,
     };
     let render = |samples: std::ops::Range<u32>| {
         let film = Film::new(settings.width, settings.height, samples);

@@ -6,7 +6,7 @@ use std::ops::Range;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
-use std::sync::Arc;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use anyhow::{bail, Context, Result};
@@ -27,11 +27,12 @@ use ember::film::aov::Aov;
 use ember::film::checkpoint::{self, Header, Identity};
 use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
-use ember::guiding::{Guiding, MAX_ITERATIONS};
+use ember::guiding::{Guiding, SdTree, MAX_ITERATIONS};
 use ember::image::{self, Tonemap};
 use ember::integrator::IntegratorKind;
 use ember::render::{
-    self, Adaptive, Checkpointing, PassReport, RenderControl, RenderSettings, RenderStats,
+    self, Adaptive, Checkpointing, GuideView, PassReport, RenderControl, RenderSettings,
+    RenderStats,
 };
 use ember::scene::{
     load_obj, Camera, CameraSettings, Environment, Instancing, Lens, LoadReport, Opacity, Scene,
@@ -146,6 +147,16 @@ pub struct RenderArgs {
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
     #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
     guiding_iterations: u32,
+    /// With --guiding: write the learnt directional distribution at the first
+    /// non-delta vertex of pixel --guide-pixel's centre ray to FILE (.exr, .hdr or
+    /// .png), 256x128 pixels of density per steradian over an equal-area map of the
+    /// sphere: rows from world +z (top) to −z by equal steps of z, columns the azimuth
+    /// atan2(y, x) from 0 to 360° (a PNG is scaled so that its densest pixel is white).
+    #[arg(long, value_name = "FILE", requires_all = ["guiding", "guide_pixel"])]
+    guide_image: Option<PathBuf>,
+    /// The pixel of --guide-image, X,Y (0,0 is the top-left corner).
+    #[arg(long, value_name = "X,Y", value_parser = parse_pixel, requires = "guide_image")]
+    guide_pixel: Option<(u32, u32)>,
     /// How light samples choose an emitter and a point on it: `auto` (`bvh` with at
     /// least 512 emissive triangles, else `alias`), `alias` (an alias table
     /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
@@ -255,6 +266,8 @@ struct RenderPlan {
     denoise: bool,
     time_limit: Option<Duration>,
     shard: Option<(u32, u32)>,
+    /// `--guide-image` and its pixel.
+    guide_image: Option<(PathBuf, (u32, u32))>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
 }
@@ -325,6 +338,7 @@ impl RenderPlan {
             denoise: args.denoise,
             time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
+            guide_image: args.guide_image.zip(args.guide_pixel),
             samples,
         }
     }
@@ -341,6 +355,12 @@ impl RenderPlan {
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
         if self.settings.guiding.is_some() && self.settings.integrator != IntegratorKind::Mis {
             bail!("--guiding guides the mis integrator only: drop --integrator or --guiding");
+        }
+        if let Some((_, (x, y))) = self.guide_image {
+            let (w, h) = (self.settings.width, self.settings.height);
+            if x >= w || y >= h {
+                bail!("--guide-pixel {x},{y} is outside the {w}x{h} image");
+            }
         }
         if self.background.is_some_and(|b| b.min_element() < 0.0) {
             bail!("--background must not be negative");
@@ -390,6 +410,15 @@ impl RenderPlan {
             }
         }
         ember::io::check_writable(&self.checkpoint)?;
+        if let Some((path, _)) = &self.guide_image {
+            check_image_output(path, &[], false)?;
+            if same_file(path, &self.output) || same_file(path, &self.checkpoint) {
+                bail!(
+                    "--guide-image {} would overwrite the render's output",
+                    path.display()
+                );
+            }
+        }
         Ok(())
     }
 
@@ -454,6 +483,16 @@ pub fn parse_aov(s: &str) -> Result<Aov, String> {
         let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
         format!("unknown pass {s:?}: choose from {}", names.join(", "))
     })
+}
+
+/// `X,Y`: a pixel.
+fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("expected a pixel X,Y (two whole numbers), got {s:?}");
+    let (x, y) = s.trim().split_once(',').ok_or_else(bad)?;
+    Ok((
+        x.trim().parse().map_err(|_| bad())?,
+        y.trim().parse().map_err(|_| bad())?,
+    ))
 }
 
 fn parse_aperture(s: &str) -> Result<f32, String> {
@@ -669,7 +708,7 @@ fn finish_render<A: Accel>(
         every,
         write: &periodic,
     });
-    let (film, stats, passes) =
+    let (film, stats, passes, view) =
         pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
 
     let write_image = |path: &Path| write_film_image(plan, &film, path);
@@ -695,7 +734,60 @@ fn finish_render<A: Accel>(
         None => write_image(&plan.output)?,
     }
     report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
+    if let Some((path, pixel)) = &plan.guide_image {
+        write_guide_image(path, *pixel, view)?;
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `--guide-image`'s size: twice as wide as high, as the sphere's azimuth spans twice
+/// the range of its z.
+const GUIDE_IMAGE_SIZE: (u32, u32) = (256, 128);
+
+/// Writes `--guide-image` (the density as grey) and says what it shows.
+fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -> Result<()> {
+    let Some(view) = view else {
+        eprintln!(
+            "warning: pixel {x},{y} meets no surface that scatters diffusely or glossily \
+             within --max-depth: no --guide-image written"
+        );
+        return Ok(());
+    };
+    // A PNG shows the density relative to its densest pixel (white); EXR and HDR hold
+    // the density itself.
+    let densest = view.density.iter().fold(0.0f32, |a, &b| a.max(b));
+    let png = image::OutputFormat::from_path(path)? == image::OutputFormat::Png;
+    let scale = if png && densest > 0.0 {
+        1.0 / densest
+    } else {
+        1.0
+    };
+    let image = image::Image {
+        width: view.width,
+        height: view.height,
+        pixels: view
+            .density
+            .iter()
+            .map(|&d| Vec3::splat(d * scale))
+            .collect(),
+    };
+    image.save(path)?;
+    let (p, n) = (view.p, view.normal);
+    eprintln!(
+        "wrote {}: the guide at pixel {x},{y}'s first vertex ({:.3},{:.3},{:.3}), normal \
+         ({:.2},{:.2},{:.2}): selection {:.1}, {:.1}% of its mass below the surface, \
+         densest {densest:.3} per steradian",
+        path.display(),
+        p.x,
+        p.y,
+        p.z,
+        n.x,
+        n.y,
+        n.z,
+        view.selection,
+        100.0 * view.below
+    );
+    Ok(())
 }
 
 /// Writes the film's image to `path`: denoised with `--denoise` (the noisy image kept
@@ -865,7 +957,7 @@ fn render_with_progress<A: Accel>(
     film: Film,
     stop: &AtomicUsize,
     checkpoint: Option<Checkpointing<'_>>,
-) -> (Film, RenderStats, PassReport) {
+) -> (Film, RenderStats, PassReport, Option<GuideView>) {
     let settings = &plan.settings;
     let started = Instant::now();
     let deadline = plan.time_limit.map(|limit| started + limit);
@@ -898,6 +990,16 @@ fn render_with_progress<A: Accel>(
             bar.set_message(spp_summary(report));
         }
     };
+    let (scene, camera) = (&loaded.scene, &loaded.camera);
+    let view = Mutex::new(None);
+    let on_guide = |tree: &SdTree| {
+        if let Some((_, pixel)) = plan.guide_image {
+            let size = GUIDE_IMAGE_SIZE;
+            let seen =
+                render::guide_view(scene, accel, camera, tree, pixel, settings.max_depth, size);
+            *view.lock().unwrap_or_else(|p| p.into_inner()) = seen;
+        }
+    };
     let control = RenderControl {
         stop,
         on_samples: &on_samples,
@@ -905,12 +1007,13 @@ fn render_with_progress<A: Accel>(
         checkpoint,
         deadline,
         on_pass: &on_pass,
+        on_guide: Some(&on_guide),
     };
-    let (scene, camera) = (&loaded.scene, &loaded.camera);
     let (film, stats) = render::render_progressive(scene, accel, camera, settings, film, &control);
     bar.finish_and_clear();
     let report = PassReport::of(&film);
-    (film, stats, report)
+    let view = view.into_inner().unwrap_or_else(|p| p.into_inner());
+    (film, stats, report, view)
 }
 
 /// `spp 16/23.5/64 (min/mean/max), 41.2% converged`.

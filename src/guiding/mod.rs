@@ -9,10 +9,11 @@
 //!   (divided by the density of its direction) into a cleared copy; that copy,
 //!   refined ([`SdTree::refined`]), is the next tree. The records are folded in tile
 //!   order, so the tree does not depend on the number of threads.
-//!   Records are spread by Müller et al.'s box filters, over the neighbouring
-//!   regions (a box the size of the record's region) and the neighbouring cells of
-//!   each quadtree (a square the size of the record's cell), exactly rather than by
-//!   jittering, so the tree stays a function of the records and their order.
+//!   Records are spread by Müller et al.'s box filters: in space as they do it, to
+//!   the region at a point jittered within a box the size of the record's region
+//!   (the jitter a hash of the record, so the tree stays a function of the records
+//!   and their order), and over the neighbouring cells of that region's quadtree (a
+//!   square the size of the record's cell) exactly.
 //! - Sampling (`mis` only, at every non-delta vertex): a one-sample mixture of the
 //!   BSDF's sampling and the guide's ([`VertexGuide`]: the region's distribution
 //!   folded onto the hemisphere the BSDF reflects into), drawing from the guide with

@@ -73,6 +73,12 @@ impl<'a> VertexGuide<'a> {
     /// and this guide.
     #[inline]
     pub fn mixture_pdf(&self, bsdf_pdf: f32, d: Vec3) -> f32 {
-        (1.0 - self.selection) * bsdf_pdf + self.selection * self.pdf(d)
+        self.mixture_of(bsdf_pdf, self.pdf(d))
+    }
+
+    /// The mixture's density from the BSDF's and this guide's densities at a direction.
+    #[inline]
+    pub fn mixture_of(&self, bsdf_pdf: f32, guide_pdf: f32) -> f32 {
+        (1.0 - self.selection) * bsdf_pdf + self.selection * guide_pdf
     }
 }

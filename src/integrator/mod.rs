@@ -37,7 +37,7 @@ use glam::{Vec2, Vec3};
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
-use crate::guiding::{NoRecords, PathRecorder, SdTree, VertexGuide};
+use crate::guiding::{MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -123,6 +123,9 @@ struct Step {
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
     traced: Option<Option<Hit>>,
+    /// At a guided vertex, the BSDF's value and density and the guide's density along
+    /// `dir`, as the draw found them: what a training record of the draw holds.
+    mixture: Option<MixtureTerms>,
 }
 
 /// A surface point as light sampling sees it: where it is, and the shading normal
@@ -359,11 +362,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
             if let EmissionWeight::Mis { bsdf_pdf, .. } = step.emission {
-                let mixture = || {
-                    let guide = guide?;
-                    let (f, pdf) = bsdf.eval_pdf(wo, step.dir);
-                    Some((f, pdf, guide.pdf(step.dir)))
-                };
+                let mixture = || step.mixture;
                 recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput, mixture);
             }
             if throughput == Vec3::ZERO {
@@ -433,6 +432,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission,
             eta: sample.eta,
             traced: None,
+            mixture: None,
         })
     }
 
@@ -503,7 +503,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
             (sample.wi, sample.value, sample.pdf)
         };
-        let pdf = guide.mixture_pdf(bsdf_pdf, wi);
+        let guide_pdf = guide.pdf(wi);
+        let pdf = guide.mixture_of(bsdf_pdf, guide_pdf);
         if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -516,6 +517,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             },
             eta: 1.0,
             traced: None,
+            mixture: Some((value, bsdf_pdf, guide_pdf)),
         })
     }
 
@@ -558,6 +560,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission: EmissionWeight::Full,
             eta: 1.0,
             traced: Some(next),
+            mixture: None,
         })
     }
 }

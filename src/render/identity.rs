@@ -96,7 +96,7 @@ pub fn identity(
         (
             "guiding",
             format!(
-                "sd-tree 2 (box-filtered, folded, learnt selection), {} iterations, training seed from the render's",
+                "sd-tree 3 (jitter-filtered in space, box-filtered in direction, folded, learnt selection), {} iterations, training seed from the render's",
                 g.iterations
             ),
         )

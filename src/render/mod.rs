@@ -8,10 +8,12 @@
 //! that have converged; a deadline ends the render wherever it is.
 
 pub mod adaptive;
+mod guide_view;
 mod identity;
 mod training;
 
 pub use adaptive::Adaptive;
+pub use guide_view::{guide_view, GuideView};
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
 pub use training::train_guide;
 
@@ -23,7 +25,7 @@ use rayon::prelude::*;
 
 use crate::accel::Accel;
 use crate::film::{Film, FilmTile, PixelSums, Sample};
-use crate::guiding::{Guiding, GuidingStats};
+use crate::guiding::{Guiding, GuidingStats, SdTree};
 use crate::image::Image;
 use crate::integrator::{IntegratorKind, PathTracer, RayCount};
 use crate::light::LightSamplerKind;
@@ -108,6 +110,9 @@ pub struct RenderControl<'a> {
     pub deadline: Option<Instant>,
     /// Called after each whole pass with the film's state (progress bars).
     pub on_pass: &'a (dyn Fn(&PassReport) + Sync),
+    /// Called once with the trained guide of a guided render, before it renders
+    /// (`--guide-image`).
+    pub on_guide: Option<&'a (dyn Fn(&SdTree) + Sync)>,
 }
 
 /// The film's state after a pass: samples per pixel and how many pixels converged.
@@ -181,6 +186,7 @@ pub fn render<A: Accel>(
         checkpoint: None,
         deadline: None,
         on_pass: &|_| {},
+        on_guide: None,
     };
     let film = Film::new(settings.width, settings.height, 0..settings.spp);
     let (film, stats) = render_progressive(scene, accel, camera, settings, film, &control);
@@ -226,6 +232,9 @@ pub fn render_progressive<A: Accel>(
         }
         _ => None,
     };
+    if let (Some((tree, _)), Some(on_guide)) = (&trained, control.on_guide) {
+        on_guide(tree);
+    }
     let tracer = tracer.with_guide(trained.as_ref().map(|t| &t.0));
     let before = film.total_done();
     let tiles: Vec<Mutex<FilmTile>> = film.tiles(TILE_SIZE).into_iter().map(Mutex::new).collect();

@@ -160,6 +160,7 @@ pub fn render_stopping<A: ember::accel::Accel>(
         checkpoint: None,
         deadline: None,
         on_pass: &|_| {},
+        on_guide: None,
     };
     let (film, stats) =
         ember::render::render_progressive(scene, accel, camera, settings, film, &control);
