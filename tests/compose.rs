@@ -3,10 +3,13 @@
 //! OBJ and loaded: the same image on Embree and on the native BVH, under a rotation, a
 //! non-uniform scale and a mirror; its emitter lights the scene as the baked one does.
 
+mod common;
+
 use std::collections::HashMap;
 use std::fmt::Write;
 use std::path::Path;
 
+use common::{emitted_power, mean_relative_difference};
 use ember::accel::{Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::image::Image;
@@ -110,33 +113,6 @@ fn images(scene: &Scene) -> [Image; 2] {
         render(scene, &embree, &camera, &s, &|_| {}).0,
         render(scene, &bvh, &camera, &s, &|_| {}).0,
     ]
-}
-
-/// Mean over pixels and channels of |a − b| / (|b| + 0.01).
-fn mean_relative_difference(a: &Image, b: &Image) -> f64 {
-    let sum: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]), f64::from(q[c]))))
-        .map(|(x, y)| (x - y).abs() / (y.abs() + 0.01))
-        .sum();
-    sum / (3 * a.pixels.len()) as f64
-}
-
-/// The power an emitter set sends out: Σ area · |Ke| over emissive triangles.
-fn emitted_power(scene: &Scene) -> f64 {
-    scene
-        .emitters
-        .iter()
-        .map(|&t| {
-            let [a, b, c] =
-                scene.mesh.triangles[t as usize].map(|i| scene.mesh.positions[i as usize]);
-            let area = 0.5 * f64::from((b - a).cross(c - a).length());
-            let m = &scene.materials[scene.mesh.material[t as usize] as usize];
-            area * f64::from(m.emission.element_sum())
-        })
-        .sum()
 }
 
 #[test]

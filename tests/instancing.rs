@@ -9,15 +9,17 @@
 //! within 10⁻³ of its edge, where the baked and the instanced mesh (rounded in
 //! different spaces) may pick different neighbours.
 
+mod common;
+
 use std::path::Path;
 use std::sync::Arc;
 
+use common::{emitted_power, mean_relative_difference};
 use ember::accel::{
     instanced_bvh, instanced_embree, instanced_filtered_bvh, Accel, Bvh, EmbreeAccel, Hit,
     HitFilter, Instance, InstancedBvh, Ray,
 };
 use ember::embree::{BuildQuality, Device};
-use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::{render, RenderSettings};
 use ember::sampling::Rng;
@@ -298,31 +300,6 @@ fn settings() -> RenderSettings {
         adaptive: None,
         guiding: None,
     }
-}
-
-/// Mean over pixels and channels of |a − b| / (|b| + 0.01).
-fn mean_relative_difference(a: &Image, b: &Image) -> f64 {
-    let sum: f64 = a
-        .pixels
-        .iter()
-        .zip(&b.pixels)
-        .flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]), f64::from(q[c]))))
-        .map(|(x, y)| (x - y).abs() / (y.abs() + 0.01))
-        .sum();
-    sum / (3 * a.pixels.len()) as f64
-}
-
-/// Σ area · |Ke| over the emissive triangles of `mesh` (the scene's light mesh).
-fn emitted_power(scene: &Scene) -> f64 {
-    let mesh = scene.light_mesh();
-    scene
-        .emitters
-        .iter()
-        .map(|&t| {
-            let m = &scene.materials[mesh.material[t as usize] as usize];
-            f64::from(mesh.area(t)) * f64::from(m.emission.element_sum())
-        })
-        .sum()
 }
 
 #[test]

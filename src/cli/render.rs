@@ -234,6 +234,16 @@ pub fn embree_config(threads: Option<u32>) -> String {
     parts.join(",")
 }
 
+/// The Embree device a render builds on: `threads` plus `EMBER_EMBREE_CONFIG`, and the
+/// memory limit of `EMBER_EMBREE_MEMORY_LIMIT`, if set.
+fn render_device(threads: Option<u32>) -> Result<Device> {
+    let device = Device::new(&embree_config(threads))?;
+    if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
+        device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
+    }
+    Ok(device)
+}
+
 /// What the camera flags ask for; the defaults depend on the scene's bounds.
 struct CameraRequest {
     eye: Option<Vec3>,
@@ -598,10 +608,7 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     // dynamic dispatch.
     match plan.accel {
         AccelKind::Embree => {
-            let device = Device::new(&embree_config(plan.threads))?;
-            if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
-                device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
-            }
+            let device = render_device(plan.threads)?;
             let quality = BuildQuality::High;
             // Embree reads the mesh in place: the render borrows it, no copies.
             let accel =
@@ -635,10 +642,7 @@ fn render_instanced(
     let mesh = &loaded.scene.mesh;
     match plan.accel {
         AccelKind::Embree => {
-            let device = Device::new(&embree_config(plan.threads))?;
-            if let Some(limit) = env_bytes("EMBER_EMBREE_MEMORY_LIMIT")? {
-                device.set_memory_limit(Some(usize::try_from(limit).unwrap_or(usize::MAX)));
-            }
+            let device = render_device(plan.threads)?;
             let quality = BuildQuality::High;
             let accel = instanced_embree(&device, mesh, instancing, quality, cutouts.as_ref())
                 .context("cannot build the Embree scene")?;

@@ -9,6 +9,7 @@ use std::process::{Command, Output};
 
 use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
+use ember::image::Image;
 use ember::scene::{Material, Scene, TriangleMesh};
 use glam::Vec3;
 
@@ -166,4 +167,33 @@ pub fn render_stopping<A: ember::accel::Accel>(
         ember::render::render_progressive(scene, accel, camera, settings, film, &control);
     assert_eq!(stats.samples, taken.load(Ordering::Relaxed));
     film
+}
+
+/// Mean over pixels and channels of |a − b| / (|b| + 0.01).
+pub fn mean_relative_difference(a: &Image, b: &Image) -> f64 {
+    let sum: f64 = a
+        .pixels
+        .iter()
+        .zip(&b.pixels)
+        .flat_map(|(p, q)| (0..3).map(move |c| (f64::from(p[c]), f64::from(q[c]))))
+        .map(|(x, y)| (x - y).abs() / (y.abs() + 0.01))
+        .sum();
+    sum / (3 * a.pixels.len()) as f64
+}
+
+/// The power a scene's lights send out: Σ area · |Ke| over its emissive triangles (in
+/// an instanced scene, those of its world-space light mesh), each area from the
+/// triangle's corners rather than the mesh's own `area`.
+pub fn emitted_power(scene: &Scene) -> f64 {
+    let mesh = scene.light_mesh();
+    scene
+        .emitters
+        .iter()
+        .map(|&t| {
+            let [a, b, c] = mesh.triangles[t as usize].map(|i| mesh.positions[i as usize]);
+            let area = 0.5 * f64::from((b - a).cross(c - a).length());
+            let m = &scene.materials[mesh.material[t as usize] as usize];
+            area * f64::from(m.emission.element_sum())
+        })
+        .sum()
 }
