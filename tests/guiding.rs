@@ -17,7 +17,7 @@ use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Guiding,
     MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDE_PROBABILITY, MIN_SELECTION_DRAWS,
-    SELECTION_CHOICES,
+    SELECTION_CHOICES, SPLIT_REFERENCE_PIXELS,
 };
 use ember::integrator::{IntegratorKind, PathTracer};
 use ember::render::{guide_view, identity, render, train_guide, RenderSettings};
@@ -248,7 +248,8 @@ fn selection_probability_follows_the_second_moment() {
                 }),
             });
         }
-        tree.refined(1).selection_at(Vec3::ZERO)
+        tree.refined(1, SPLIT_REFERENCE_PIXELS)
+            .selection_at(Vec3::ZERO)
     };
     let last = *SELECTION_CHOICES.last().unwrap();
     assert_eq!(train(true, 5000), last);

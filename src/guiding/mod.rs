@@ -38,7 +38,8 @@ pub use quadtree::{
 };
 pub use record::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record};
 pub use sdtree::{
-    SdTree, MAX_SPATIAL_NODES, MIN_SELECTION_DRAWS, SELECTION_CHOICES, SPLIT_RECORDS_PER_SQRT_SPP,
+    split_threshold, SdTree, MAX_SPATIAL_NODES, MIN_SELECTION_DRAWS, SELECTION_CHOICES,
+    SPLIT_RECORDS_PER_SQRT_SPP, SPLIT_REFERENCE_PIXELS,
 };
 pub use vertex::VertexGuide;
 

@@ -24,9 +24,24 @@ pub const MIN_SELECTION_DRAWS: u64 = 256;
 /// guides).
 pub const MAX_SPATIAL_NODES: usize = 4095;
 
-/// Müller et al.'s `c`: after an iteration of `spp` samples per pixel, a leaf that
-/// received more than `c · √spp` records is split in two.
+/// Müller et al.'s `c`: after an iteration of `spp` samples per pixel over an image of
+/// [`SPLIT_REFERENCE_PIXELS`], a leaf that received more than `c · √spp` records is
+/// split in two.
 pub const SPLIT_RECORDS_PER_SQRT_SPP: f64 = 12_000.0;
+
+/// The image size at which [`SPLIT_RECORDS_PER_SQRT_SPP`] holds as it is (1280×720);
+/// other sizes scale `c` by their pixels over these ([`split_threshold`]).
+pub const SPLIT_REFERENCE_PIXELS: u64 = 1280 * 720;
+
+/// The records above which a leaf is split after an iteration of `spp` samples per
+/// pixel over `pixels` pixels: `c · √spp · pixels / SPLIT_REFERENCE_PIXELS`. A fixed
+/// `c` ties the number of regions to the image's size (at 160×90 a whole room gets
+/// about 30, each spanning surfaces that face different ways); scaled, the tree has
+/// about as many regions at any size, each learnt from fewer records on small images.
+pub fn split_threshold(spp: u32, pixels: u64) -> f64 {
+    let scale = pixels.max(1) as f64 / SPLIT_REFERENCE_PIXELS as f64;
+    SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt() * scale
+}
 
 /// A node: an inner node's children (the lower half first) and the axis it cuts, or
 /// a leaf's index and the axis a split of it would cut (x at the root, then y, z, x…).
@@ -241,8 +256,8 @@ impl SdTree {
     }
 
     /// The tree the next iteration samples from, after this one received the records
-    /// of an iteration of `spp` samples per pixel: leaves with more than
-    /// [`SPLIT_RECORDS_PER_SQRT_SPP`]` · √spp` records are split (both halves starting
+    /// of an iteration of `spp` samples per pixel over `pixels` pixels: leaves with more
+    /// than [`split_threshold`] records are split (both halves starting
     /// from the parent's records, half the count each, and split again while above),
     /// while the node budget allows; then every quadtree is rebuilt from its energy
     /// ([`QuadTree::refined`]). Deterministic: leaves are visited in index order.
@@ -254,8 +269,8 @@ impl SdTree {
     /// learnt well or badly alike is the weakest part of Müller et al. 2017, and their
     /// 2019 follow-up learns it per region too (by gradient descent; this is the same
     /// objective minimised over a grid). Split leaves keep their parent's.
-    pub fn refined(&self, spp: u32) -> SdTree {
-        let threshold = SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt();
+    pub fn refined(&self, spp: u32, pixels: u64) -> SdTree {
+        let threshold = split_threshold(spp, pixels);
         let mut tree = self.clone();
         for leaf in &mut tree.leaves {
             leaf.selection = leaf.best_selection();

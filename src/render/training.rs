@@ -88,7 +88,7 @@ pub fn train_guide<A: Accel>(
         }
         samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
         first_sample += spp;
-        tree = filling.refined(spp);
+        tree = filling.refined(spp, u64::from(settings.width) * u64::from(settings.height));
     }
     let stats = GuidingStats {
         seconds: start.elapsed().as_secs_f64(),
