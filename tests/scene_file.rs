@@ -211,3 +211,35 @@ fn a_cameras_lens_keys_are_the_lens_flags() {
     assert!(read("file.png") == read("flags.png"));
     assert!(read("file.png") != read("pinhole.png"));
 }
+
+/// An instanced scene says in its loading line how many placements it has and how many
+/// triangles they put in the world: the OBJ's own count times the placements.
+#[test]
+fn the_loading_line_counts_the_placements() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = write_scene(
+        dir.path(),
+        "name = \"box\"\n[[instance]]\nobj = \"box\"\ntranslate = [3, 0, 0]\n\
+         [[instance]]\nobj = \"box\"\nscale = -1\n",
+    );
+    let mut args = vec!["render", scene.to_str().unwrap(), "-o", "out.png"];
+    args.extend(SMALL);
+    let out = ember(&args, dir.path());
+    ok(&out);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let line = stderr
+        .lines()
+        .find(|l| l.starts_with("loaded "))
+        .expect("a loading line");
+    let count = |after: &str| -> u64 {
+        let rest = &line[line.find(after).unwrap_or_else(|| panic!("{line}")) + after.len()..];
+        rest.split(|c: char| !c.is_ascii_digit())
+            .next()
+            .unwrap()
+            .parse()
+            .unwrap()
+    };
+    let triangles = count(": ");
+    assert_eq!(count(", placed "), 3, "{line}");
+    assert_eq!(count(" times ("), 3 * triangles, "{line}");
+}

@@ -832,8 +832,17 @@ fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
         0 => String::new(),
         n => format!(", {n} degenerate triangles dropped"),
     };
+    // An instanced scene holds each OBJ once: say how much the placements put in the world.
+    let placed = match &loaded.scene.instancing {
+        None => String::new(),
+        Some(instancing) => format!(
+            ", placed {} times ({} triangles in the world)",
+            instancing.instances.len(),
+            instancing.placed_triangles()
+        ),
+    };
     eprintln!(
-        "loaded {}: {} triangles, {} materials, {} emissive triangles{dropped}",
+        "loaded {}: {} triangles, {} materials, {} emissive triangles{dropped}{placed}",
         plan.scene.display(),
         report.triangles,
         report.materials,

@@ -65,6 +65,14 @@ pub struct Instancing {
 }
 
 impl Instancing {
+    /// The triangles the placements put in the world: each instance counts its part's.
+    pub fn placed_triangles(&self) -> u64 {
+        self.instances
+            .iter()
+            .map(|i| self.parts[i.mesh as usize].triangles.len() as u64)
+            .sum()
+    }
+
     /// The placements `instances` of the `parts` of `mesh` (instances already checked
     /// by [`crate::geometry::object_transforms`]).
     pub fn new(
