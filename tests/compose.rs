@@ -9,12 +9,12 @@ use std::collections::HashMap;
 use std::fmt::Write;
 use std::path::Path;
 
-use common::{emitted_power, mean_relative_difference};
+use common::{emitted_power, mean_relative_difference, small_mis_settings};
 use ember::accel::{Bvh, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::image::Image;
-use ember::integrator::IntegratorKind;
-use ember::render::{render, RenderSettings};
+
+use ember::render::render;
 use ember::scene::{
     compose, load_obj, load_obj_from_str, mirrors, CameraSettings, Placement, Scene,
 };
@@ -86,25 +86,11 @@ fn baked_obj(scene: &Scene, t: &Affine3A) -> String {
     s
 }
 
-fn settings() -> RenderSettings {
-    RenderSettings {
-        width: 64,
-        height: 64,
-        spp: 16,
-        max_depth: 6,
-        seed: 11,
-        integrator: IntegratorKind::Mis,
-        light_sampler: Default::default(),
-        adaptive: None,
-        guiding: None,
-    }
-}
-
 /// The scene through one camera framing it, on Embree and on the native BVH.
 fn images(scene: &Scene) -> [Image; 2] {
     let (lo, hi) = scene.bounds();
     let camera = CameraSettings::framing(lo, hi, 50.0).camera(64, 64);
-    let s = settings();
+    let s = small_mis_settings();
     let (positions, triangles) = (&scene.mesh.positions, &scene.mesh.triangles);
     let device = Device::new("").unwrap();
     let embree = EmbreeAccel::build(&device, positions, triangles, BuildQuality::High).unwrap();

@@ -14,14 +14,14 @@ mod common;
 use std::path::Path;
 use std::sync::Arc;
 
-use common::{emitted_power, mean_relative_difference};
+use common::{emitted_power, mean_relative_difference, small_mis_settings};
 use ember::accel::{
     instanced_bvh, instanced_embree, instanced_filtered_bvh, Accel, Bvh, EmbreeAccel, Hit,
     HitFilter, Instance, InstancedBvh, Ray,
 };
 use ember::embree::{BuildQuality, Device};
-use ember::integrator::IntegratorKind;
-use ember::render::{render, RenderSettings};
+
+use ember::render::render;
 use ember::sampling::Rng;
 use ember::scene::{compose, load_obj, mirrors, place, CameraSettings, Placement, Scene};
 use glam::{Affine3A, Quat, Vec3};
@@ -288,20 +288,6 @@ fn bad_placements_are_refused_on_both_backends() {
     assert!(message.contains("another device"), "{message}");
 }
 
-fn settings() -> RenderSettings {
-    RenderSettings {
-        width: 64,
-        height: 64,
-        spp: 16,
-        max_depth: 6,
-        seed: 11,
-        integrator: IntegratorKind::Mis,
-        light_sampler: Default::default(),
-        adaptive: None,
-        guiding: None,
-    }
-}
-
 #[test]
 fn an_instanced_scene_renders_as_the_baked_one_on_both_backends() {
     let box_scene = sphere_box();
@@ -317,7 +303,7 @@ fn an_instanced_scene_renders_as_the_baked_one_on_both_backends() {
 
     let (lo, hi) = world.bounds();
     let camera = CameraSettings::framing(lo, hi, 50.0).camera(64, 64);
-    let s = settings();
+    let s = small_mis_settings();
     let device = Device::new("").unwrap();
     let quality = BuildQuality::High;
     let instancing = placed.instancing.as_deref().unwrap();
@@ -399,7 +385,7 @@ fn two_distinct_meshes_with_cut_outs_render_as_the_baked_scene() {
 
     let (lo, hi) = world.bounds();
     let camera = CameraSettings::framing(lo, hi, 50.0).camera(64, 64);
-    let s = settings();
+    let s = small_mis_settings();
     let device = Device::new("").unwrap();
     let quality = BuildQuality::High;
     let (wv, wt) = (&world.mesh.positions, &world.mesh.triangles);

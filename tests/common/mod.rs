@@ -197,3 +197,19 @@ pub fn emitted_power(scene: &Scene) -> f64 {
         })
         .sum()
 }
+
+/// The settings of the image comparisons (compose, instancing): 64², 16 spp, depth 6,
+/// `mis`, seed 11.
+pub fn small_mis_settings() -> ember::render::RenderSettings {
+    ember::render::RenderSettings {
+        width: 64,
+        height: 64,
+        spp: 16,
+        max_depth: 6,
+        seed: 11,
+        integrator: ember::integrator::IntegratorKind::Mis,
+        light_sampler: Default::default(),
+        adaptive: None,
+        guiding: None,
+    }
+}
