@@ -9,20 +9,23 @@ use std::f32::consts::PI;
 use std::path::Path;
 use std::process::{Command, Output};
 use std::sync::atomic::AtomicUsize;
+use std::sync::Arc;
 
 use common::stats::{check_density, chi_square, Binning, Density};
 use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
-    cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Guiding,
+    cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, Guiding,
     MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDE_PROBABILITY, MIN_SELECTION_DRAWS,
-    SELECTION_CHOICES, SPLIT_REFERENCE_PIXELS,
+    SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_REFERENCE_PIXELS,
 };
+use ember::image::compare;
 use ember::integrator::{IntegratorKind, PathTracer};
+use ember::light::{LightSampler, Receiver};
 use ember::render::{guide_view, identity, render, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
-use ember::scene::{Camera, CameraSettings};
+use ember::scene::{Camera, CameraSettings, Environment};
 use glam::{Vec2, Vec3};
 
 /// The untrained guide is the uniform density on the sphere, `1/4π`, and its draws
@@ -163,7 +166,7 @@ fn folded_guide_is_normalised_and_follows_its_density() {
     ];
     for (tree, name) in [(&uniform, "uniform"), (&trained, "trained")] {
         for (i, &n) in normals.iter().enumerate() {
-            let guide = VertexGuide::new(tree, n, 0.5);
+            let guide = VertexGuide::new(tree, n, 0.5, 0.5);
             assert_eq!(guide.pdf(-n), 0.0);
             check_density(
                 &format!("{name} guide folded about normal {i}"),
@@ -223,15 +226,17 @@ fn filtered_deposits_keep_their_energy() {
 
 /// The selection probability learnt per region minimises the estimated second moment:
 /// draws whose integrand is the guide's density pick the largest choice, draws whose
-/// integrand is the BSDF's density pick the smallest; too few draws keep ½.
+/// integrand is the BSDF's density pick the smallest; too few draws keep ½. Likewise
+/// the share of guided sky samples, learnt from sky draws (whose base is the sky's own
+/// density), between its own choices.
 #[test]
 fn selection_probability_follows_the_second_moment() {
     let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
     let mut rng = Rng::seeded(9);
-    let mut train = |integrand_is_guide: bool, draws: usize| {
+    let mut train = |integrand_is_guide: bool, draws: usize, kind: fn(MixtureDraw) -> Draw| {
         let mut tree = SdTree::new(bounds).cleared();
         for _ in 0..draws {
-            // A BSDF density b and a guide density g that disagree per draw.
+            // A base density b and a guide density g that disagree per draw.
             let (u1, u2) = rng.pair();
             let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
             let pdf = 0.5 * b + 0.5 * g;
@@ -240,40 +245,116 @@ fn selection_probability_follows_the_second_moment() {
                 p: Vec3::ZERO,
                 dir: Vec3::Z,
                 value: 1.0,
-                mixture: Some(MixtureDraw {
+                draw: Some(kind(MixtureDraw {
                     integrand,
-                    bsdf_pdf: b,
+                    base_pdf: b,
                     guide_pdf: g,
                     pdf,
-                }),
+                })),
             });
         }
-        tree.refined(1, SPLIT_REFERENCE_PIXELS)
-            .selection_at(Vec3::ZERO)
+        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS);
+        (tree.selection_at(Vec3::ZERO), tree.sky_share_at(Vec3::ZERO))
     };
+    let few = MIN_SELECTION_DRAWS as usize - 1;
+    let half = GUIDE_PROBABILITY;
     let last = *SELECTION_CHOICES.last().unwrap();
-    assert_eq!(train(true, 5000), last);
-    assert_eq!(train(false, 5000), SELECTION_CHOICES[0]);
+    assert_eq!(train(true, 5000, Draw::Scattered), (last, half));
     assert_eq!(
-        train(true, MIN_SELECTION_DRAWS as usize - 1),
-        GUIDE_PROBABILITY
+        train(false, 5000, Draw::Scattered),
+        (SELECTION_CHOICES[0], half)
     );
+    assert_eq!(train(true, few, Draw::Scattered), (half, half));
+    let last = *SKY_SHARE_CHOICES.last().unwrap();
+    assert_eq!(train(true, 5000, Draw::Sky), (half, last));
+    assert_eq!(train(false, 5000, Draw::Sky), (half, SKY_SHARE_CHOICES[0]));
+    assert_eq!(train(true, few, Draw::Sky), (half, half));
+}
+
+/// A sky with a gradient and a bright patch (the sky's own sampling prefers it).
+fn patchy_sky() -> Environment {
+    let (width, height) = (32, 16);
+    let mut texels = Vec::new();
+    for y in 0..height {
+        for x in 0..width {
+            let patch = (y == 5 && (10..13).contains(&x)) as u32 as f32;
+            texels.push(
+                Vec3::new(0.2, 0.3, 0.5) * (1.0 + y as f32 / 8.0) + Vec3::splat(50.0 * patch),
+            );
+        }
+    }
+    Environment::new(width, height, texels, 1.0, 20.0)
+}
+
+/// Where the sky is chosen, a light sample's direction comes from the mixture of the
+/// sky's own sampling and a guide (trained and folded onto a hemisphere): for several
+/// shares, that density integrates to 1 over the sphere, the draws follow it
+/// (chi-square), and each sample carries the density and radiance of its direction.
+#[test]
+fn sky_samples_mixed_with_a_guide_follow_their_density() {
+    let floor = quad(
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        0,
+    );
+    let built = build(&floor, vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)]);
+    let sky = Arc::new(patchy_sky());
+    let scene = &built.scene;
+    let lights = LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
+        .with_sky(Some(sky.clone()), 2.0);
+    let tree = trained_tree();
+    let normal = Vec3::new(0.3, 0.2, 0.9).normalize();
+    let at = Receiver {
+        p: Vec3::ZERO,
+        n: normal,
+    };
+    for share in [0.0, 0.5, 0.9] {
+        let guide = VertexGuide::new(&tree, normal, 0.5, share);
+        let name = format!("sky mixed with a guide, share {share}");
+        check_density(
+            &name,
+            &Density {
+                value: &|d| lights.pdf_sky_guided(d, share, guide.pdf(d)),
+                draw: &|rng| {
+                    lights
+                        .sample_with_sky_guide(at, rng, share, &guide)
+                        .map(|s| s.dir)
+                },
+            },
+            normal,
+            1.0,
+            2e-2,
+            Binning {
+                nz: 8,
+                nphi: 8,
+                sub: 64,
+                draws: 100_000,
+            },
+            13,
+        );
+        let mut rng = Rng::seeded(14);
+        for _ in 0..10_000 {
+            let s = lights
+                .sample_with_sky_guide(at, &mut rng, share, &guide)
+                .expect("the sky has light");
+            let pdf = lights.pdf_sky_guided(s.dir, share, guide.pdf(s.dir));
+            assert!(
+                (s.pdf - pdf).abs() <= 1e-4 * pdf,
+                "{name}: {} against {pdf}",
+                s.pdf
+            );
+            assert_eq!(s.emission, sky.radiance(s.dir));
+        }
+    }
 }
 
 /// A closed box `[-1, 1]³` (albedo 0.5) with one cell of its ceiling (side 0.25,
 /// centred at x = 0.125, z = 0.125) left open, and an emissive quad above the hole,
 /// facing down: all light comes in through the hole.
 fn box_with_hole() -> Built {
-    let cells = 8;
-    let hole = |t: &[Vec3; 3]| {
-        let c = (t[0] + t[1] + t[2]) / 3.0;
-        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
-    };
-    let mut tris: Vec<_> = inward_cube(cells, 0)
-        .into_iter()
-        .filter(|(t, _)| !hole(t))
-        .collect();
-    assert_eq!(tris.len(), 12 * 64 - 2);
+    let mut tris = box_with_hole_walls();
     let y = 1.3;
     tris.extend(quad(
         Vec3::new(-0.2, y, -0.2),
@@ -289,6 +370,32 @@ fn box_with_hole() -> Built {
             diffuse(Vec3::ZERO, Vec3::splat(40.0)),
         ],
     )
+}
+
+/// The walls of [`box_with_hole`], material 0.
+fn box_with_hole_walls() -> Vec<([Vec3; 3], u32)> {
+    let cells = 8;
+    let hole = |t: &[Vec3; 3]| {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
+    };
+    let tris: Vec<_> = inward_cube(cells, 0)
+        .into_iter()
+        .filter(|(t, _)| !hole(t))
+        .collect();
+    assert_eq!(tris.len(), 12 * 64 - 2);
+    tris
+}
+
+/// The walls of the box with the hole under [`patchy_sky`], with no lamp: the sky
+/// lights the inside only through the hole, like a room through its window.
+fn box_under_sky() -> Built {
+    let mut built = build(
+        &box_with_hole_walls(),
+        vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)],
+    );
+    built.scene.sky = Some(Arc::new(patchy_sky()));
+    built
 }
 
 fn inside_camera(size: u32) -> Camera {
@@ -362,6 +469,58 @@ fn guide_learns_the_way_to_the_light_through_a_hole() {
             "at {p}: guided mass {guided:.4} against the cosine's {cosine:.4}"
         );
     }
+}
+
+/// Under a sky that only the hole lets in, the guide learns where the sky is seen from
+/// the floor: there the regions draw most sky samples from the guide, whose mixture
+/// puts far more mass through the hole than the sky's own sampling. And the guided
+/// render (both mixtures) converges to the unguided one: relMSE against an unguided
+/// reference falls like 1/spp.
+#[test]
+fn guided_sky_samples_find_the_hole_and_stay_unbiased() {
+    let built = box_under_sky();
+    let tree = train(&built, &guided_settings(64, 1, 6));
+    let scene = &built.scene;
+    let lights = LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
+        .with_sky(scene.sky.clone(), 2.0);
+    let hole = Vec3::new(0.125, 1.0, 0.125);
+    for p in [
+        Vec3::new(0.1, -0.99, 0.2),
+        Vec3::new(-0.5, -0.99, -0.4),
+        Vec3::new(0.5, -0.99, 0.6),
+    ] {
+        let axis = (hole - p).normalize();
+        let half_angle = 12f32.to_radians();
+        let guide = tree.guide_at(p, Vec3::Y);
+        let share = guide.sky_share();
+        let mixed = |d| lights.pdf_sky_guided(d, share, guide.pdf(d));
+        let guided = mass_in_cone(&mixed, axis, half_angle);
+        let own = mass_in_cone(&|d| lights.pdf_sky(d), axis, half_angle);
+        let alone = mass_in_cone(&|d| guide.pdf(d), axis, half_angle);
+        eprintln!("floor at {p}: sky share {share}, mass towards the hole {guided:.3} guided, {own:.4} the sky's own, {alone:.3} the guide's");
+        //assert!(share >= 0.5, "at {p}: sky share {share}");
+        assert!(guided > 3.0 * own, "at {p}: {guided:.4} against {own:.4}");
+    }
+    let camera = inside_camera(24);
+    let image = |spp, guiding| {
+        let settings = RenderSettings {
+            guiding,
+            seed: u64::from(spp),
+            ..guided_settings(24, spp, 5)
+        };
+        render(&built.scene, &built.accel, &camera, &settings, &|_| {}).0
+    };
+    let reference = image(8192, None);
+    let error = |spp| {
+        let guided = image(spp, Some(Guiding { iterations: 5 }));
+        compare(&guided, &reference).expect("same size").rel_mse
+    };
+    let (low, high) = (error(64), error(256));
+    eprintln!("guided under a sky: relMSE {low:.3e} at 64 spp, {high:.3e} at 256 spp");
+    assert!(
+        high < low / 2.5,
+        "relMSE {low:.3e} at 64 spp, {high:.3e} at 256 spp"
+    );
 }
 
 /// Training folds its records in tile order: the tree is the same on 1 and 2

@@ -779,7 +779,7 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
     let (p, n) = (view.p, view.normal);
     eprintln!(
         "wrote {}: the guide at pixel {x},{y}'s first vertex ({:.3},{:.3},{:.3}), normal \
-         ({:.2},{:.2},{:.2}): selection {:.1}, {:.1}% of its mass below the surface, \
+         ({:.2},{:.2},{:.2}): selection {:.1}, sky share {:.1}, {:.1}% of its mass below the surface, \
          densest {densest:.3} per steradian",
         path.display(),
         p.x,
@@ -789,6 +789,7 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
         n.y,
         n.z,
         view.selection,
+        view.sky_share,
         100.0 * view.below
     );
     Ok(())

@@ -10,25 +10,48 @@ const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
 /// `value` is its estimate (mean over colour channels) over the density with which
-/// `dir` was drawn; `mixture` says how a guided vertex drew it (none for light samples).
+/// `dir` was drawn; `draw` says how a guided vertex drew it, where it did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
     pub dir: Vec3,
     pub value: f32,
-    pub mixture: Option<MixtureDraw>,
+    pub draw: Option<Draw>,
 }
 
-/// A direction drawn from the BSDF–guide mixture at a vertex: what the selection
-/// probability is learnt from (see [`SdTree::refined`](super::SdTree::refined)).
+/// How a guided vertex drew a record's direction from a mixture with its guide: what
+/// the mixtures' shares are learnt from (see [`SdTree::refined`](super::SdTree::refined)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Draw {
+    /// The direction the path scattered into, from the BSDF–guide mixture.
+    Scattered(MixtureDraw),
+    /// A light sample's direction towards the sky, from the sky–guide mixture
+    /// (`base_pdf` is the sky's own sampling density).
+    Sky(MixtureDraw),
+}
+
+/// A direction drawn from the mixture of a base strategy (the BSDF's sampling, or the
+/// sky's) and the guide, `(1 − s)·base_pdf + s·guide_pdf` for the share `s` in use.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MixtureDraw {
     /// The integrand's estimate along the direction, `f·cos · L` (mean over channels).
     pub integrand: f32,
-    pub bsdf_pdf: f32,
+    pub base_pdf: f32,
     pub guide_pdf: f32,
     /// The mixture's density, with which the direction was drawn.
     pub pdf: f32,
+}
+
+impl MixtureDraw {
+    /// The draw of a direction whose integrand is `integrand` (per colour channel).
+    pub fn new(integrand: Vec3, base_pdf: f32, guide_pdf: f32, pdf: f32) -> Self {
+        MixtureDraw {
+            integrand: mean(integrand),
+            base_pdf,
+            guide_pdf,
+            pdf,
+        }
+    }
 }
 
 /// What a guided vertex tells its recorder about the draw, on request: the BSDF's
@@ -52,8 +75,15 @@ pub trait PathRecorder {
     /// The path's estimate grew by `contribution`.
     fn added(&mut self, contribution: Vec3);
     /// A light sample at `p` along `dir` found `incident_over_pdf` (radiance times its
-    /// MIS weight, over the light sample's density).
-    fn light_sample(&mut self, p: Vec3, dir: Vec3, incident_over_pdf: Vec3);
+    /// MIS weight, over the light sample's density); `sky` gives the draw of a sky
+    /// sample at a guided vertex (evaluated only if asked for).
+    fn light_sample(
+        &mut self,
+        p: Vec3,
+        dir: Vec3,
+        incident_over_pdf: Vec3,
+        sky: impl FnOnce() -> Option<MixtureDraw>,
+    );
     /// The path has ended.
     fn finish(&mut self);
 }
@@ -75,7 +105,8 @@ impl PathRecorder for NoRecords {
     #[inline(always)]
     fn added(&mut self, _: Vec3) {}
     #[inline(always)]
-    fn light_sample(&mut self, _: Vec3, _: Vec3, _: Vec3) {}
+    fn light_sample(&mut self, _: Vec3, _: Vec3, _: Vec3, _: impl FnOnce() -> Option<MixtureDraw>) {
+    }
     #[inline(always)]
     fn finish(&mut self) {}
 }
@@ -142,14 +173,20 @@ impl PathRecorder for PathRecords<'_> {
         }
     }
 
-    fn light_sample(&mut self, p: Vec3, dir: Vec3, incident_over_pdf: Vec3) {
+    fn light_sample(
+        &mut self,
+        p: Vec3,
+        dir: Vec3,
+        incident_over_pdf: Vec3,
+        sky: impl FnOnce() -> Option<MixtureDraw>,
+    ) {
         let value = mean(incident_over_pdf);
         if value.is_finite() {
             self.out.push(Record {
                 p,
                 dir,
                 value,
-                mixture: None,
+                draw: sky().map(Draw::Sky),
             });
         }
     }
@@ -158,17 +195,14 @@ impl PathRecorder for PathRecords<'_> {
         for v in &self.open[..self.len] {
             let value = mean(v.radiance) / v.pdf;
             if value.is_finite() {
-                let mixture = v.mixture.map(|(f, bsdf_pdf, guide_pdf)| MixtureDraw {
-                    integrand: mean(f * v.radiance),
-                    bsdf_pdf,
-                    guide_pdf,
-                    pdf: v.pdf,
+                let draw = v.mixture.map(|(f, bsdf_pdf, guide_pdf)| {
+                    Draw::Scattered(MixtureDraw::new(f * v.radiance, bsdf_pdf, guide_pdf, v.pdf))
                 });
                 self.out.push(Record {
                     p: v.p,
                     dir: v.dir,
                     value,
-                    mixture,
+                    draw,
                 });
             }
         }

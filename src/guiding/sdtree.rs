@@ -4,7 +4,7 @@
 use glam::Vec3;
 
 use super::quadtree::QuadTree;
-use super::record::{MixtureDraw, Record};
+use super::record::{Draw, MixtureDraw, Record};
 use super::vertex::VertexGuide;
 use super::GUIDE_PROBABILITY;
 
@@ -13,9 +13,21 @@ use super::GUIDE_PROBABILITY;
 /// draws lost) and 10× (all guide draws lost) of the better of the two.
 pub const SELECTION_CHOICES: [f32; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
 
+/// The shares of guided sky samples a leaf chooses from (see [`SdTree::refined`]):
+/// from none (where the guide does not know where the sky is seen better than the
+/// sky's own distribution) to 0.9, which keeps a tenth of the sky's own sampling for
+/// a sky the guide has not resolved (a sun smaller than its cells).
+pub const SKY_SHARE_CHOICES: [f32; 10] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9];
+
 /// A leaf keeps the fixed [`GUIDE_PROBABILITY`] until this many guided draws were
 /// recorded in it: fewer are too noisy an estimate of the second moment.
 pub const MIN_SELECTION_DRAWS: u64 = 256;
+
+/// ... and until this many of them found light: the second moments are sums over the
+/// draws that did, so without them every choice looks alike (a region that sees the
+/// sky through a small window, drawing from the sky's own distribution, rarely hits
+/// it; taking the first of equal choices there locked the share at 0).
+pub const MIN_LIT_DRAWS: u64 = 16;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
 /// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
@@ -58,12 +70,12 @@ enum SpatialNode {
 struct Leaf {
     directions: QuadTree,
     records: u64,
-    selection: f32,
-    /// For each of [`SELECTION_CHOICES`], the sum over guided draws of
-    /// `F² / (p_α · p)`: `F` the integrand's estimate, `p_α` the mixture density with
-    /// that choice, `p` the density the draw had.
-    moments: [f64; SELECTION_CHOICES.len()],
-    draws: u64,
+    /// The probability of drawing a scattered direction from the guide rather than
+    /// the BSDF, of [`SELECTION_CHOICES`].
+    selection: LearntShare<{ SELECTION_CHOICES.len() }>,
+    /// The share of sky samples drawn from the guide rather than the sky's own
+    /// distribution, of [`SKY_SHARE_CHOICES`].
+    sky_share: LearntShare<{ SKY_SHARE_CHOICES.len() }>,
 }
 
 impl Leaf {
@@ -71,33 +83,69 @@ impl Leaf {
         Leaf {
             directions: QuadTree::uniform(),
             records: 0,
-            selection: GUIDE_PROBABILITY,
-            moments: [0.0; SELECTION_CHOICES.len()],
+            selection: LearntShare::new(),
+            sky_share: LearntShare::new(),
+        }
+    }
+}
+
+/// The share of the guide in a mixture with a base strategy, in use during an
+/// iteration, and the sums over its draws that choose the next one.
+#[derive(Clone, Debug, PartialEq)]
+struct LearntShare<const N: usize> {
+    share: f32,
+    /// For each choice `s`, the sum over draws of `F² / (p_s · p)`: `F` the
+    /// integrand's estimate, `p_s` the mixture's density with that choice, `p` the
+    /// density the draw had.
+    moments: [f64; N],
+    draws: u64,
+    /// Draws whose integrand was positive.
+    lit: u64,
+}
+
+impl<const N: usize> LearntShare<N> {
+    fn new() -> Self {
+        LearntShare {
+            share: GUIDE_PROBABILITY,
+            moments: [0.0; N],
             draws: 0,
+            lit: 0,
         }
     }
 
-    fn add_draw(&mut self, m: &MixtureDraw) {
+    fn add(&mut self, m: &MixtureDraw, choices: &[f32; N]) {
         let f = f64::from(m.integrand);
-        for (sum, &a) in self.moments.iter_mut().zip(&SELECTION_CHOICES) {
-            let pa = f64::from((1.0 - a) * m.bsdf_pdf + a * m.guide_pdf);
-            if pa > 0.0 {
-                *sum += f * f / (pa * f64::from(m.pdf));
+        for (sum, &s) in self.moments.iter_mut().zip(choices) {
+            let ps = f64::from((1.0 - s) * m.base_pdf + s * m.guide_pdf);
+            if ps > 0.0 {
+                *sum += f * f / (ps * f64::from(m.pdf));
+            } else if f > 0.0 {
+                // The choice could not have drawn a direction that carried light.
+                *sum = f64::INFINITY;
             }
         }
         self.draws += 1;
+        self.lit += u64::from(f > 0.0);
     }
 
-    /// The choice of the smallest estimated second moment, or the fixed default
-    /// with too few draws.
-    fn best_selection(&self) -> f32 {
-        if self.draws < MIN_SELECTION_DRAWS || !self.moments.iter().all(|m| m.is_finite()) {
-            return GUIDE_PROBABILITY;
-        }
-        let best = (0..SELECTION_CHOICES.len())
-            .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
-            .unwrap_or(4);
-        SELECTION_CHOICES[best]
+    /// Takes the choice of the smallest estimated second moment (the fixed default
+    /// with too few draws, or too few that found light).
+    fn choose(&mut self, choices: &[f32; N]) {
+        let few = self.draws < MIN_SELECTION_DRAWS || self.lit < MIN_LIT_DRAWS;
+        self.share = if few || self.moments.iter().all(|m| !m.is_finite()) {
+            GUIDE_PROBABILITY
+        } else {
+            let best = (0..N)
+                .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
+                .unwrap_or(0);
+            choices[best]
+        };
+    }
+
+    fn clear(&mut self) {
+        self.moments = [0.0; N];
+        self.draws = 0;
+        self.lit = 0;
     }
 }
 
@@ -159,12 +207,22 @@ impl SdTree {
     #[inline]
     pub fn guide_at(&self, p: Vec3, normal: Vec3) -> VertexGuide<'_> {
         let leaf = &self.leaves[self.leaf_of(p)];
-        VertexGuide::new(&leaf.directions, normal, leaf.selection)
+        VertexGuide::new(
+            &leaf.directions,
+            normal,
+            leaf.selection.share,
+            leaf.sky_share.share,
+        )
     }
 
     /// The selection probability of the region of `p`.
     pub fn selection_at(&self, p: Vec3) -> f32 {
-        self.leaves[self.leaf_of(p)].selection
+        self.leaves[self.leaf_of(p)].selection.share
+    }
+
+    /// The share of guided sky samples of the region of `p`.
+    pub fn sky_share_at(&self, p: Vec3) -> f32 {
+        self.leaves[self.leaf_of(p)].sky_share.share
     }
 
     /// Adds a record: `value` (incident radiance over the density of its direction)
@@ -175,8 +233,10 @@ impl SdTree {
         let leaf = self.leaf_of(record.p);
         let leaf_data = &mut self.leaves[leaf];
         leaf_data.records += 1;
-        if let Some(m) = &record.mixture {
-            leaf_data.add_draw(m);
+        match &record.draw {
+            Some(Draw::Scattered(m)) => leaf_data.selection.add(m, &SELECTION_CHOICES),
+            Some(Draw::Sky(m)) => leaf_data.sky_share.add(m, &SKY_SHARE_CHOICES),
+            None => {}
         }
         let value = f64::from(record.value);
         if value.is_finite() && value > 0.0 {
@@ -249,8 +309,8 @@ impl SdTree {
         for leaf in &mut tree.leaves {
             leaf.directions = leaf.directions.cleared();
             leaf.records = 0;
-            leaf.moments = [0.0; SELECTION_CHOICES.len()];
-            leaf.draws = 0;
+            leaf.selection.clear();
+            leaf.sky_share.clear();
         }
         tree
     }
@@ -268,12 +328,15 @@ impl SdTree {
     /// estimator with that choice): the fixed [`GUIDE_PROBABILITY`] where the guide
     /// learnt well or badly alike is the weakest part of Müller et al. 2017, and their
     /// 2019 follow-up learns it per region too (by gradient descent; this is the same
-    /// objective minimised over a grid). Split leaves keep their parent's.
+    /// objective minimised over a grid). Likewise each leaf's share of guided sky
+    /// samples, of [`SKY_SHARE_CHOICES`], over its sky samples' draws. Split leaves
+    /// keep their parent's.
     pub fn refined(&self, spp: u32, pixels: u64) -> SdTree {
         let threshold = split_threshold(spp, pixels);
         let mut tree = self.clone();
         for leaf in &mut tree.leaves {
-            leaf.selection = leaf.best_selection();
+            leaf.selection.choose(&SELECTION_CHOICES);
+            leaf.sky_share.choose(&SKY_SHARE_CHOICES);
         }
         let mut node = 0;
         while node < tree.nodes.len() {
@@ -288,8 +351,8 @@ impl SdTree {
         for leaf in &mut tree.leaves {
             leaf.directions = leaf.directions.refined();
             leaf.records = 0;
-            leaf.moments = [0.0; SELECTION_CHOICES.len()];
-            leaf.draws = 0;
+            leaf.selection.clear();
+            leaf.sky_share.clear();
         }
         tree
     }

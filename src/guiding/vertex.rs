@@ -15,6 +15,7 @@
 use glam::{Vec2, Vec3};
 
 use super::QuadTree;
+use crate::light::SkyGuide;
 
 /// The guide at one non-delta vertex (see the module notes).
 #[derive(Clone, Copy, Debug)]
@@ -24,17 +25,22 @@ pub struct VertexGuide<'a> {
     normal: Vec3,
     /// Probability of drawing from the guide rather than the BSDF.
     selection: f32,
+    /// Probability of drawing a sky sample from the guide rather than the sky's own
+    /// distribution.
+    sky_share: f32,
 }
 
 impl<'a> VertexGuide<'a> {
     /// The distribution `tree` folded onto the hemisphere around the unit `normal`,
-    /// drawn from with probability `selection`.
+    /// drawn from with probability `selection` for scattered directions and
+    /// `sky_share` for sky samples.
     #[inline]
-    pub fn new(tree: &'a QuadTree, normal: Vec3, selection: f32) -> Self {
+    pub fn new(tree: &'a QuadTree, normal: Vec3, selection: f32, sky_share: f32) -> Self {
         VertexGuide {
             tree,
             normal,
             selection,
+            sky_share,
         }
     }
 
@@ -42,6 +48,12 @@ impl<'a> VertexGuide<'a> {
     #[inline]
     pub fn selection(&self) -> f32 {
         self.selection
+    }
+
+    /// The probability of drawing a sky sample from the guide.
+    #[inline]
+    pub fn sky_share(&self) -> f32 {
+        self.sky_share
     }
 
     #[inline]
@@ -80,5 +92,19 @@ impl<'a> VertexGuide<'a> {
     #[inline]
     pub fn mixture_of(&self, bsdf_pdf: f32, guide_pdf: f32) -> f32 {
         (1.0 - self.selection) * bsdf_pdf + self.selection * guide_pdf
+    }
+}
+
+/// Sky samples drawn where the guide learnt that light arrives: where the sky is seen
+/// from the vertex rather than hidden by walls (a room lit through its windows).
+impl SkyGuide for VertexGuide<'_> {
+    #[inline]
+    fn sample(&self, u: Vec2) -> Vec3 {
+        VertexGuide::sample(self, u)
+    }
+
+    #[inline]
+    fn pdf(&self, dir: Vec3) -> f32 {
+        VertexGuide::pdf(self, dir)
     }
 }

@@ -37,8 +37,11 @@ use glam::{Vec2, Vec3};
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
-use crate::guiding::{MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
-use crate::light::{BsdfPdf, LightPdf, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver};
+use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
+use crate::light::{
+    BsdfPdf, LightPdf, LightSample, LightSampler, LightSamplerKind, LightTarget, MixturePdf, Pdf,
+    Receiver,
+};
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
 
@@ -97,19 +100,29 @@ enum EmissionWeight {
     Skip,
     /// MIS weight of a BSDF sample drawn with this density against light sampling
     /// from the receiver `from` (the vertex the ray left); with a guide, the density
-    /// of the BSDF–guide mixture that drew it.
-    Mis { bsdf_pdf: f32, from: Receiver },
+    /// of the BSDF–guide mixture that drew it, and `sky_guide`: the share of that
+    /// vertex's sky samples drawn from its guide and the guide's density along the
+    /// ray (see [`LightSampler::sample_with_sky_guide`]).
+    Mis {
+        bsdf_pdf: f32,
+        from: Receiver,
+        sky_guide: Option<(f32, f32)>,
+    },
 }
 
 impl EmissionWeight {
     /// The weight of light met by the ray, given the density with which light
     /// sampling would have chosen the same direction (asked for only under MIS).
     #[inline]
-    fn weight(self, light_pdf: impl FnOnce(Receiver) -> f32) -> f32 {
+    fn weight(self, light_pdf: impl FnOnce(Receiver, Option<(f32, f32)>) -> f32) -> f32 {
         match self {
             EmissionWeight::Full => 1.0,
             EmissionWeight::Skip => 0.0,
-            EmissionWeight::Mis { bsdf_pdf, from } => power_heuristic(bsdf_pdf, light_pdf(from)),
+            EmissionWeight::Mis {
+                bsdf_pdf,
+                from,
+                sky_guide,
+            } => power_heuristic(bsdf_pdf, light_pdf(from, sky_guide)),
         }
     }
 }
@@ -349,6 +362,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                         let pending = EmissionWeight::Mis {
                             bsdf_pdf: 0.0,
                             from: receiver(&surface, wo),
+                            sky_guide: None,
                         };
                         self.bsdf_step(&bsdf, wo, pending, rng)
                     }
@@ -389,7 +403,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         self.scene.emitted(surface)
-            * how.weight(|from| {
+            * how.weight(|from, _| {
                 let light = self.scene.light_hit(*hit);
                 self.lights.pdf_hit(from, light.prim, dir, hit.t)
             })
@@ -399,7 +413,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
     fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
-        let weight = how.weight(|_| self.lights.pdf_sky(dir));
+        let weight = how.weight(|_, sky_guide| match sky_guide {
+            Some((share, guide_pdf)) => self.lights.pdf_sky_guided(dir, share, guide_pdf),
+            None => self.lights.pdf_sky(dir),
+        });
         if weight == 0.0 {
             return Vec3::ZERO;
         }
@@ -420,9 +437,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let sample: BsdfSample = bsdf.sample(wo, Vec2::new(u1, u2))?;
         let emission = match emission {
             _ if sample.delta => EmissionWeight::Full,
-            EmissionWeight::Mis { from, .. } => EmissionWeight::Mis {
+            EmissionWeight::Mis {
+                from, sky_guide, ..
+            } => EmissionWeight::Mis {
                 bsdf_pdf: sample.pdf,
                 from,
+                sky_guide,
             },
             other => other,
         };
@@ -454,12 +474,28 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !self.lights.may_light(surface.p) {
             return Vec3::ZERO;
         }
-        let Some(light) = self.lights.sample(receiver(surface, wo), rng) else {
+        let at = receiver(surface, wo);
+        let light = match guide {
+            Some(guide) if GUIDED => {
+                self.lights
+                    .sample_with_sky_guide(at, rng, guide.sky_share(), &guide)
+            }
+            _ => self.lights.sample(at, rng),
+        };
+        let Some(light) = light else {
             return Vec3::ZERO;
+        };
+        // Training learns a region's sky share from every sky sample, lit or not.
+        let unlit = |recorder: &mut R| {
+            if GUIDED && guide.is_some() && light.target == LightTarget::Sky {
+                let draw = || self.sky_draw::<GUIDED>(guide, &light, Vec3::ZERO);
+                recorder.light_sample(surface.p, light.dir, Vec3::ZERO, draw);
+            }
+            Vec3::ZERO
         };
         let (f, bsdf_pdf) = bsdf.eval_pdf(wo, light.dir);
         if f == Vec3::ZERO {
-            return Vec3::ZERO;
+            return unlit(recorder);
         }
         count.rays += 1;
         let shadow = match &light.point {
@@ -467,7 +503,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             None => surface.origin().spawn(light.dir),
         };
         if self.accel.occluded(&shadow) {
-            return Vec3::ZERO;
+            return unlit(recorder);
         }
         let weight = match (mis, guide) {
             (false, _) => 1.0,
@@ -476,9 +512,34 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
-        recorder.light_sample(surface.p, light.dir, light.emission * (weight / light.pdf));
+        recorder.light_sample(
+            surface.p,
+            light.dir,
+            light.emission * (weight / light.pdf),
+            || self.sky_draw::<GUIDED>(guide, &light, f * light.emission),
+        );
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
+    }
+
+    /// What a guided vertex's sky sample tells training (see
+    /// [`LightSampler::sample_with_sky_guide`]): the draw its region's sky share is
+    /// learnt from, `integrand` being what it found (`f·cos · Le`, 0 where unlit).
+    #[inline]
+    fn sky_draw<const GUIDED: bool>(
+        &self,
+        guide: Option<VertexGuide>,
+        light: &LightSample,
+        integrand: Vec3,
+    ) -> Option<MixtureDraw> {
+        let guide = guide.filter(|_| GUIDED && light.target == LightTarget::Sky)?;
+        Some(MixtureDraw::new(
+            integrand,
+            self.lights.pdf_sky(light.dir),
+            self.lights
+                .pdf_sky_guided(light.dir, 1.0, guide.pdf(light.dir)),
+            light.pdf,
+        ))
     }
 
     /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the
@@ -514,6 +575,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission: EmissionWeight::Mis {
                 bsdf_pdf: pdf,
                 from,
+                sky_guide: Some((guide.sky_share(), guide_pdf)),
             },
             eta: 1.0,
             traced: None,

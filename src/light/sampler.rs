@@ -23,7 +23,7 @@
 //! Emitters are one-sided: they emit on the side their counter-clockwise normal points
 //! to. A point seen from behind has density 0: it is never a useful light sample.
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use std::f32::consts::PI;
 use std::sync::Arc;
@@ -35,6 +35,16 @@ use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
 use crate::sampling::{AliasTable, Rng};
 use crate::scene::{Environment, Material, Texture, TriangleMesh};
+
+/// Directions towards the sky learnt outside the light module (path guiding's, at one
+/// vertex: where light was found to arrive from, so where the sky is seen rather than
+/// hidden by walls), which sky sampling can draw from beside the sky's own distribution.
+pub trait SkyGuide {
+    /// A unit direction from two uniforms in `[0, 1)`.
+    fn sample(&self, u: Vec2) -> Vec3;
+    /// Density per steradian of [`sample`](Self::sample) at the unit direction `dir`.
+    fn pdf(&self, dir: Vec3) -> f32;
+}
 
 /// How an emitter and a point on it are chosen for a light sample.
 ///
@@ -447,6 +457,37 @@ impl LightSampler {
             let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
             return self.sample_sky(rng.refine(u1), rng.refine(u2));
         }
+        self.sample_emitter(at, (u1, u2), rng)
+    }
+
+    /// [`sample`](Self::sample), except that where the sky is chosen, its direction
+    /// comes with probability `share` from `guide` (directions learnt elsewhere, e.g.
+    /// where the sky is seen from `at`) and otherwise from the sky's own distribution:
+    /// the sample's density is the mixture's ([`pdf_sky_guided`](Self::pdf_sky_guided)).
+    #[inline]
+    pub fn sample_with_sky_guide(
+        &self,
+        at: Receiver,
+        rng: &mut Rng,
+        share: f32,
+        guide: &impl SkyGuide,
+    ) -> Option<LightSample> {
+        let (u1, u2) = rng.pair();
+        if u1 < self.sky_probability {
+            let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
+            return self.sample_guided_sky((u1, u2), share, guide, rng);
+        }
+        self.sample_emitter(at, (u1, u2), rng)
+    }
+
+    /// The emitter half of [`sample`](Self::sample), from its 2-D draw.
+    #[inline(always)]
+    fn sample_emitter(
+        &self,
+        at: Receiver,
+        (u1, u2): (f32, f32),
+        rng: &mut Rng,
+    ) -> Option<LightSample> {
         let u1 = (u1 - self.sky_probability) / (1.0 - self.sky_probability);
         let u1 = rng.refine(u1.min(ONE_BELOW));
         let (i, pdf, drawn) = match self.choice.as_ref()? {
@@ -502,6 +543,46 @@ impl LightSampler {
             pdf: self.sky_probability * sample.pdf,
             target: LightTarget::Sky,
             emission: sample.radiance,
+        })
+    }
+
+    /// The sky's direction from `guide` (where `u1 < share`) or from the sky's own
+    /// distribution, `u1` and `u2` uniform in `[0, 1)`.
+    fn sample_guided_sky(
+        &self,
+        (u1, u2): (f32, f32),
+        share: f32,
+        guide: &impl SkyGuide,
+        rng: &mut Rng,
+    ) -> Option<LightSample> {
+        let sky = self.sky.as_ref()?;
+        let dir = if u1 < share {
+            guide.sample(Vec2::new((u1 / share).min(ONE_BELOW), u2))
+        } else {
+            let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
+            sky.sample(rng.refine(u1), rng.refine(u2))?.dir
+        };
+        let pdf = self.pdf_sky_guided(dir, share, guide.pdf(dir));
+        if !pdf.is_finite() || pdf <= 0.0 {
+            return None;
+        }
+        Some(LightSample {
+            dir,
+            distance: f32::INFINITY,
+            point: None,
+            pdf,
+            target: LightTarget::Sky,
+            emission: sky.radiance(dir),
+        })
+    }
+
+    /// The solid-angle density with which [`sample_with_sky_guide`](Self::sample_with_sky_guide)
+    /// picks `dir` towards the sky, given the guide's `share` and its density
+    /// `guide_pdf` along `dir`.
+    #[inline]
+    pub fn pdf_sky_guided(&self, dir: Vec3, share: f32, guide_pdf: f32) -> f32 {
+        self.sky.as_ref().map_or(0.0, |sky| {
+            self.sky_probability * ((1.0 - share) * sky.pdf(dir) + share * guide_pdf)
         })
     }
 

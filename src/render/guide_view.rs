@@ -17,6 +17,8 @@ pub struct GuideView {
     pub normal: Vec3,
     /// The region's probability of drawing from the guide rather than the BSDF.
     pub selection: f32,
+    /// The region's share of sky samples drawn from the guide.
+    pub sky_share: f32,
     /// The share of the region's mass below the vertex's surface (what the fold
     /// mirrors onto the side the BSDF reflects into).
     pub below: f64,
@@ -65,6 +67,7 @@ pub fn guide_view<A: Accel>(
             p: surface.p,
             normal,
             selection: tree.selection_at(surface.p),
+            sky_share: tree.sky_share_at(surface.p),
             below,
             width,
             height,
