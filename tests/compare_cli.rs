@@ -57,6 +57,55 @@ fn different_sizes_are_a_one_line_error() {
     assert_eq!(String::from_utf8_lossy(&missing.stderr).lines().count(), 1);
 }
 
+/// `--downsample N` judges an image N times the reference's size by its N×N block
+/// means: a 4x2 image whose 2x2 blocks average to the 2x1 reference compares as equal;
+/// a factor that does not divide the size is a one-line error.
+#[test]
+fn downsample_compares_block_means() {
+    let dir = tempfile::tempdir().unwrap();
+    let (a, b) = (dir.path().join("a.exr"), dir.path().join("b.exr"));
+    let mut image = Image::new(4, 2);
+    for (i, p) in image.pixels.iter_mut().enumerate() {
+        // Blocks {0, 1, 4, 5} and {2, 3, 6, 7}: means 0.25 and 0.45.
+        *p = Vec3::splat(0.1 * i as f32);
+    }
+    let mut reference = Image::new(2, 1);
+    reference.pixels = vec![Vec3::splat(0.25), Vec3::splat(0.45)];
+    image.save(&a).unwrap();
+    reference.save(&b).unwrap();
+    let run = |factor: &str| {
+        Command::new(env!("CARGO_BIN_EXE_ember"))
+            .arg("compare")
+            .args([&a, &b])
+            .args(["--downsample", factor])
+            .output()
+            .expect("ember runs")
+    };
+    let out = run("2");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    // Equal up to the rounding of the f32 inputs.
+    let rel: f64 = text
+        .split("relMSE ")
+        .nth(1)
+        .unwrap()
+        .split_whitespace()
+        .next()
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert!(rel < 1e-12, "{text}");
+    let bad = run("3");
+    assert!(!bad.status.success());
+    let err = String::from_utf8_lossy(&bad.stderr);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.contains("--downsample 3"), "{err}");
+}
+
 /// `ember render` with the reference's camera flags writes a linear EXR that lines up
 /// with Mitsuba's reference: same framing, row order and scale (a wrong camera, row
 /// order or a gamma would leave a relMSE far above the noise of 2 spp).

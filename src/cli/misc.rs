@@ -18,11 +18,25 @@ pub struct CompareArgs {
     /// (row 0 at the top), e.g. a region near a light.
     #[arg(long, value_name = "X,Y,W,H")]
     crop: Option<Crop>,
+    /// Average the image over blocks of N×N pixels first: a render at N times the
+    /// reference's width and height is then judged as a render at the reference's size
+    /// with N² times the samples
+    #[arg(long, value_name = "N")]
+    downsample: Option<u32>,
 }
 
 pub fn compare(args: CompareArgs) -> Result<()> {
-    let image = Image::load(&args.image)?;
+    let mut image = Image::load(&args.image)?;
     let reference = Image::load(&args.reference)?;
+    if let Some(factor) = args.downsample {
+        image = image::downsampled(&image, factor).ok_or_else(|| {
+            anyhow::anyhow!(
+                "--downsample {factor}: it must divide the image's size, {}x{}",
+                image.width,
+                image.height
+            )
+        })?;
+    }
     let error = match args.crop {
         None => image::compare(&image, &reference)?,
         Some(crop) => image::compare_crop(&image, &reference, crop)?,

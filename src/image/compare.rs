@@ -46,6 +46,32 @@ pub fn compare(image: &Image, reference: &Image) -> Result<ImageError, SizeMisma
     ))
 }
 
+/// `image` averaged over blocks of `factor × factor` pixels: a render at `factor` times
+/// a reference's width and height, brought to the reference's size, is a render at that
+/// size with `factor²` times the samples (the blocks are the reference's pixels), so a
+/// large render can be judged against a smaller reference. `None` when the size is not
+/// a multiple of `factor` (or `factor` is 0).
+pub fn downsampled(image: &Image, factor: u32) -> Option<Image> {
+    if factor == 0 || image.width % factor != 0 || image.height % factor != 0 {
+        return None;
+    }
+    let (width, height) = (image.width / factor, image.height / factor);
+    let mut out = Image::new(width, height);
+    let weight = 1.0 / f64::from(factor * factor);
+    for (i, pixel) in out.pixels.iter_mut().enumerate() {
+        let (x, y) = (i as u32 % width, i as u32 / width);
+        let mut sum = glam::DVec3::ZERO;
+        for row in y * factor..(y + 1) * factor {
+            let start = (row * image.width + x * factor) as usize;
+            for p in &image.pixels[start..start + factor as usize] {
+                sum += p.as_dvec3();
+            }
+        }
+        *pixel = (sum * weight).as_vec3();
+    }
+    Some(out)
+}
+
 /// A rectangle of pixels: its top-left corner (column `x`, row `y`, row 0 at the top)
 /// and size, as `ember compare --crop x,y,w,h` reads it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -138,6 +164,26 @@ pub fn compare_pixels(pairs: impl Iterator<Item = (glam::Vec3, glam::Vec3)>) -> 
 
 #[cfg(test)]
 mod tests {
+    /// Blocks average exactly (a 4×2 image of known values to 2×1), and sizes that are
+    /// not multiples are refused.
+    #[test]
+    fn downsampling_averages_blocks() {
+        let mut image = Image::new(4, 2);
+        for (i, p) in image.pixels.iter_mut().enumerate() {
+            *p = Vec3::splat(i as f32);
+        }
+        let small = downsampled(&image, 2).expect("4x2 by 2");
+        assert_eq!((small.width, small.height), (2, 1));
+        // Pixels 0, 1, 4, 5 and 2, 3, 6, 7.
+        assert_eq!(small.pixels, vec![Vec3::splat(2.5), Vec3::splat(4.5)]);
+        assert_eq!(
+            downsampled(&image, 1).expect("same size").pixels,
+            image.pixels
+        );
+        assert!(downsampled(&image, 3).is_none());
+        assert!(downsampled(&image, 0).is_none());
+    }
+
     use super::*;
     use glam::Vec3;
 

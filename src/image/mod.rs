@@ -8,7 +8,7 @@ pub mod layers;
 mod tonemap;
 
 pub use compare::{
-    compare, compare_crop, compare_pixels, Crop, CropError, ImageError, SizeMismatch,
+    compare, compare_crop, compare_pixels, downsampled, Crop, CropError, ImageError, SizeMismatch,
 };
 pub use decode::{decode_file, decode_jpeg};
 pub use layers::{Layer, LayerError, LayeredImage};
