@@ -19,7 +19,7 @@ pub const MIN_SELECTION_DRAWS: u64 = 256;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
 /// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
-/// `MAX_SPATIAL_NODES · 12 + 2048 · (2001 · 64 + 136)` bytes (≈ 262 MB) while guiding
+/// `MAX_SPATIAL_NODES · 4 + 2048 · (2001 · 64 + 136)` bytes (≈ 262 MB) while guiding
 /// a render, twice that while training (the tree being filled beside the one that
 /// guides).
 pub const MAX_SPATIAL_NODES: usize = 4095;
@@ -43,12 +43,40 @@ pub fn split_threshold(spp: u32, pixels: u64) -> f64 {
     SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt() * scale
 }
 
-/// A node: an inner node's children (the lower half first) and the axis it cuts, or
-/// a leaf's index and the axis a split of it would cut (x at the root, then y, z, x…).
+/// A node in one `u32` (a descent reads 4 bytes a level): bit 31 says a leaf; bits 29
+/// and 30 hold an inner node's axis, or the axis a split of the leaf would cut (x at
+/// the root, then y, z, x…); bits 0–28 the index of an inner node's lower child (the
+/// upper one follows it) or of the leaf's [`Leaf`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum SpatialNode {
-    Inner { axis: u8, children: [u32; 2] },
-    Leaf { leaf: u32, axis: u8 },
+struct SpatialNode(u32);
+
+impl SpatialNode {
+    const LEAF: u32 = 1 << 31;
+    const INDEX: u32 = (1 << 29) - 1;
+
+    fn inner(axis: u8, lower_child: u32) -> Self {
+        SpatialNode(u32::from(axis) << 29 | lower_child)
+    }
+
+    fn leaf(leaf: u32, axis: u8) -> Self {
+        SpatialNode(Self::LEAF | u32::from(axis) << 29 | leaf)
+    }
+
+    #[inline]
+    fn is_leaf(self) -> bool {
+        self.0 & Self::LEAF != 0
+    }
+
+    #[inline]
+    fn axis(self) -> usize {
+        (self.0 >> 29 & 3) as usize
+    }
+
+    /// The leaf's index, or the inner node's lower child.
+    #[inline]
+    fn index(self) -> usize {
+        (self.0 & Self::INDEX) as usize
+    }
 }
 
 /// One region of space: its directional distribution, how many records fell in it
@@ -119,7 +147,7 @@ impl SdTree {
         SdTree {
             min,
             extent: (max - min).max(Vec3::splat(1e-6)),
-            nodes: vec![SpatialNode::Leaf { leaf: 0, axis: 0 }],
+            nodes: vec![SpatialNode::leaf(0, 0)],
             leaves: vec![Leaf::uniform()],
         }
     }
@@ -132,19 +160,25 @@ impl SdTree {
 
     /// The index of the leaf containing `x`, in the unit cube of the tree's box.
     #[inline]
-    fn leaf_at(&self, mut x: Vec3) -> usize {
-        let mut node = 0usize;
-        loop {
-            match self.nodes[node] {
-                SpatialNode::Leaf { leaf, .. } => return leaf as usize,
-                SpatialNode::Inner { axis, children } => {
-                    let a = axis as usize;
-                    let upper = x[a] >= 0.5;
-                    x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
-                    node = children[usize::from(upper)] as usize;
-                }
-            }
+    fn leaf_at(&self, x: Vec3) -> usize {
+        self.leaf_and_size_at(x).0
+    }
+
+    /// The index of the leaf containing `x` (in the unit cube of the tree's box) and
+    /// its extent there. Each level halves the coordinate it cuts and rescales it to
+    /// the half it fell in (exactly: a doubling, less one in the upper half).
+    #[inline]
+    fn leaf_and_size_at(&self, x: Vec3) -> (usize, Vec3) {
+        let (mut x, mut size) = (x.to_array(), [1.0f32; 3]);
+        let mut node = self.nodes[0];
+        while !node.is_leaf() {
+            let a = node.axis();
+            let upper = x[a] >= 0.5;
+            x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
+            size[a] *= 0.5;
+            node = self.nodes[node.index() + usize::from(upper)];
         }
+        (node.index(), Vec3::from_array(size))
     }
 
     /// The directional distribution of the region of `p`.
@@ -172,7 +206,8 @@ impl SdTree {
     /// `p` only; its value is spread by box filters over space and direction (see
     /// [`deposit_filtered`](Self::deposit_filtered)).
     pub fn deposit(&mut self, record: &Record) {
-        let leaf = self.leaf_of(record.p);
+        let x = ((record.p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
+        let (leaf, size) = self.leaf_and_size_at(x);
         let leaf_data = &mut self.leaves[leaf];
         leaf_data.records += 1;
         if let Some(m) = &record.mixture {
@@ -180,42 +215,26 @@ impl SdTree {
         }
         let value = f64::from(record.value);
         if value.is_finite() && value > 0.0 {
-            self.deposit_filtered(record.p, record.dir, value);
+            self.deposit_filtered(record, x, size, value);
         }
     }
 
     /// Müller et al.'s spatial box filter, stochastically as they do it: the record
-    /// goes to the leaf at a point drawn uniformly from a box the size of the leaf of
-    /// `p`, centred on `p` (clamped to the tree's box), and is spread over directions
-    /// there by [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
+    /// goes to the leaf at a point drawn uniformly from a box of `size` (the extent of
+    /// the leaf of the record's point, `x` in the unit cube of the tree's box), centred
+    /// on `x` (clamped to the tree's box), and is spread over directions there by
+    /// [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
     /// record itself, so records folded in a fixed order still give the same tree at
     /// any thread count. One leaf a record, where spreading it over every leaf the box
     /// overlaps (up to 8, each a quadtree splat) took a quarter of a guided Cornell
     /// run's instructions; in expectation the two are the same filter.
-    fn deposit_filtered(&mut self, p: Vec3, d: Vec3, value: f64) {
-        let x = ((p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
-        let size = self.leaf_size(x);
-        let jittered =
-            (x + (record_jitter(p, d) - Vec3::splat(0.5)) * size).clamp(Vec3::ZERO, Vec3::ONE);
+    fn deposit_filtered(&mut self, record: &Record, x: Vec3, size: Vec3, value: f64) {
+        let jitter = record_jitter(record.p, record.dir) - Vec3::splat(0.5);
+        let jittered = (x + jitter * size).clamp(Vec3::ZERO, Vec3::ONE);
         let leaf = self.leaf_at(jittered);
-        self.leaves[leaf].directions.deposit_filtered(d, value);
-    }
-
-    /// The extent, in the unit cube of the tree's box, of the leaf containing `x`.
-    fn leaf_size(&self, mut x: Vec3) -> Vec3 {
-        let (mut node, mut size) = (0usize, Vec3::ONE);
-        loop {
-            match self.nodes[node] {
-                SpatialNode::Leaf { .. } => return size,
-                SpatialNode::Inner { axis, children } => {
-                    let a = axis as usize;
-                    let upper = x[a] >= 0.5;
-                    x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
-                    size[a] *= 0.5;
-                    node = children[usize::from(upper)] as usize;
-                }
-            }
-        }
+        self.leaves[leaf]
+            .directions
+            .deposit_filtered(record.dir, value);
     }
 
     pub fn leaf_count(&self) -> usize {
@@ -277,10 +296,11 @@ impl SdTree {
         }
         let mut node = 0;
         while node < tree.nodes.len() {
-            if let SpatialNode::Leaf { leaf, axis } = tree.nodes[node] {
-                let records = tree.leaves[leaf as usize].records;
+            let n = tree.nodes[node];
+            if n.is_leaf() {
+                let records = tree.leaves[n.index()].records;
                 if records as f64 > threshold && tree.nodes.len() + 2 <= MAX_SPATIAL_NODES {
-                    tree.split(node, leaf as usize, axis);
+                    tree.split(node, n.index(), n.axis() as u8);
                 }
             }
             node += 1;
@@ -304,18 +324,9 @@ impl SdTree {
         let upper_leaf = self.leaves.len() as u32;
         self.leaves.push(half);
         let first = self.nodes.len() as u32;
-        self.nodes.push(SpatialNode::Leaf {
-            leaf: leaf as u32,
-            axis: next,
-        });
-        self.nodes.push(SpatialNode::Leaf {
-            leaf: upper_leaf,
-            axis: next,
-        });
-        self.nodes[node] = SpatialNode::Inner {
-            axis,
-            children: [first, first + 1],
-        };
+        self.nodes.push(SpatialNode::leaf(leaf as u32, next));
+        self.nodes.push(SpatialNode::leaf(upper_leaf, next));
+        self.nodes[node] = SpatialNode::inner(axis, first);
     }
 }
 
