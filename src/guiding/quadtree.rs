@@ -51,6 +51,23 @@ fn factors(e: [f64; 4]) -> [f32; 4] {
     }
 }
 
+/// A leaf cell of a tree's square, as a draw found it: its lower corner, its side
+/// and the tree's density on it (per unit area of the square).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SquareCell {
+    origin: Vec2,
+    size: f32,
+    density: f32,
+}
+
+impl SquareCell {
+    #[inline]
+    fn contains(&self, p: Vec2) -> bool {
+        let hi = self.origin + Vec2::splat(self.size);
+        p.cmpge(self.origin).all() && p.cmplt(hi).all()
+    }
+}
+
 /// A directional distribution over the sphere (see the module notes).
 #[derive(Clone, Debug, PartialEq)]
 pub struct QuadTree {
@@ -261,8 +278,17 @@ impl QuadTree {
     /// each level chooses the column (`x`) by `u.x` and the row by `u.y`, and rescales
     /// the uniform that chose into the part it fell in, so the draw stays stratified.
     #[inline]
-    pub fn sample_square(&self, mut u: Vec2) -> Vec2 {
+    pub fn sample_square(&self, u: Vec2) -> Vec2 {
+        self.sample_cell(u).0
+    }
+
+    /// [`sample_square`](Self::sample_square), and the leaf cell it chose (whose
+    /// density is the product of the factors on the way down, in the order
+    /// [`square_pdf`](Self::square_pdf) multiplies them).
+    #[inline]
+    pub fn sample_cell(&self, mut u: Vec2) -> (Vec2, SquareCell) {
         let (mut origin, mut size) = (Vec2::ZERO, 1.0f32);
+        let mut density = 1.0f32;
         let mut node = 0usize;
         loop {
             let f = self.nodes[node].factor;
@@ -273,10 +299,18 @@ impl QuadTree {
             let q = usize::from(right) | usize::from(top) << 1;
             size *= 0.5;
             origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;
-            match self.nodes[node].child[q] {
-                0 => return (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)),
-                c => node = c as usize,
+            density *= f[q];
+            if let c @ 1.. = self.nodes[node].child[q] {
+                node = c as usize;
+                continue;
             }
+            let p = (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
+            let cell = SquareCell {
+                origin,
+                size,
+                density,
+            };
+            return (p, cell);
         }
     }
 
@@ -349,6 +383,22 @@ impl QuadTree {
     #[inline]
     pub fn pdf(&self, d: Vec3) -> f32 {
         self.square_pdf(direction_to_square(d)) * (0.25 * FRAC_1_PI)
+    }
+
+    /// Density per steradian of the unit direction `d`, where `cell` is a leaf cell
+    /// of this tree: its density when `d` maps into it (one descent less), the
+    /// descent's otherwise. Equal to [`pdf`](Self::pdf) bit for bit: a leaf's square
+    /// has dyadic corners, exact in `f32`, and the descent halves coordinates exactly,
+    /// so `d` maps into `cell` exactly when the descent would end there.
+    #[inline]
+    pub fn pdf_knowing(&self, d: Vec3, cell: &SquareCell) -> f32 {
+        let p = direction_to_square(d);
+        let square = if cell.contains(p) {
+            cell.density
+        } else {
+            self.square_pdf(p)
+        };
+        square * (0.25 * FRAC_1_PI)
     }
 
     /// A unit direction drawn from the density (see [`sample_square`](Self::sample_square)).
