@@ -126,11 +126,51 @@ fn choose_second(u: &mut f32, p_first: f32) -> bool {
 #[inline]
 pub fn direction_to_square(d: Vec3) -> Vec2 {
     let u = ((d.z + 1.0) * 0.5).clamp(0.0, ONE_BELOW);
-    // atan2 is within [-π, π], so one turn added to negative angles is the
-    // remainder (without the call to fmodf that `rem_euclid` makes).
-    let turns = d.y.atan2(d.x) * (0.5 * FRAC_1_PI);
-    let v = if turns < 0.0 { turns + 1.0 } else { turns }.min(ONE_BELOW);
+    let v = azimuth_turns(d.x, d.y).min(ONE_BELOW);
     Vec2::new(u, v)
+}
+
+/// `atan2(y, x)` in turns, from 0 to 1 (one turn added to negative angles), without a
+/// call to `atan2f` (a tenth of a guided render's instructions with its two wrappers):
+/// the octant's symmetries (exact: swaps and sign changes) bring the angle to
+/// `atan(t) / 2π` with `t = min / max ≤ 1`, and that is the polynomial
+/// `t · Σ c_k t^2k` (degree 15, minimax in absolute error over `[0, 1]`, fitted by
+/// iteratively reweighted least squares; 6e-9 turns in exact arithmetic, 2.6e-8 in
+/// `f32`). With the symmetries' own rounding the result is within 5.6e-8 turns of the
+/// exact azimuth, where `atan2f` scaled to turns was within 9.1e-8 (the unit test
+/// below): cells are decided as before but for directions within rounding of their
+/// edges, and sampling (`sin_cos`) and the density agree as closely as they did.
+#[inline]
+fn azimuth_turns(x: f32, y: f32) -> f32 {
+    const C: [f32; 8] = [
+        0.159_154_83,
+        -0.053_046_13,
+        0.031_746_03,
+        -0.022_136_673,
+        0.015_347_017,
+        -0.008_900_012,
+        0.003_480_457_2,
+        -0.000_645_533_6,
+    ];
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = (ax.min(ay), ax.max(ay));
+    let t = if hi > 0.0 { lo / hi } else { 0.0 };
+    let s = t * t;
+    let mut a = C[7];
+    for &c in C[..7].iter().rev() {
+        a = a * s + c;
+    }
+    let mut turns = a * t;
+    if ay > ax {
+        turns = 0.25 - turns;
+    }
+    if x < 0.0 {
+        turns = 0.5 - turns;
+    }
+    if y < 0.0 {
+        turns = 1.0 - turns;
+    }
+    turns
 }
 
 /// The unit direction at square coordinates `p`.
@@ -504,6 +544,41 @@ mod tests {
                 "{u} {v} → {p}"
             );
         }
+    }
+
+    /// The azimuth in turns is `f64`'s `atan2` to within an `f32` ulp below 1 (6e-8
+    /// turns; 5.6e-8 measured, where `atan2f` scaled to turns was off by up to 9.1e-8
+    /// on the same directions), around the circle, near the axes and near the
+    /// octants' edges, and exact on the axes.
+    #[test]
+    fn azimuth_turns_is_atan2() {
+        let mut worst = 0.0f64;
+        let n = 100_000;
+        for i in 0..n {
+            let phi = i as f64 / n as f64 * std::f64::consts::TAU;
+            for (x, y) in [
+                (phi.cos(), phi.sin()),
+                (1.0, phi.sin() * 1e-3),
+                (phi.sin() * 1e-3, -1.0),
+                (1.0, 1.0 + phi.sin() * 1e-4),
+            ] {
+                let (x, y) = (x as f32, y as f32);
+                let exact = f64::from(y)
+                    .atan2(f64::from(x))
+                    .rem_euclid(std::f64::consts::TAU)
+                    / std::f64::consts::TAU;
+                let turns = f64::from(azimuth_turns(x, y));
+                // 0 and 1 are the same azimuth.
+                let error = (turns - exact).abs().min(1.0 - (turns - exact).abs());
+                worst = worst.max(error);
+            }
+        }
+        assert!(worst < 6e-8, "worst error {worst} turns");
+        assert_eq!(azimuth_turns(1.0, 0.0), 0.0);
+        assert_eq!(azimuth_turns(0.0, 1.0), 0.25);
+        assert_eq!(azimuth_turns(-1.0, 0.0), 0.5);
+        assert_eq!(azimuth_turns(0.0, -1.0), 0.75);
+        assert_eq!(azimuth_turns(0.0, 0.0), 0.0);
     }
 
     #[test]
