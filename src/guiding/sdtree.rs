@@ -2,6 +2,7 @@
 //! at the middle along x, y, z in turn, each leaf holding a directional [`QuadTree`].
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
 use super::record::{MixtureDraw, Record};
@@ -105,6 +106,14 @@ impl Leaf {
         }
     }
 
+    /// Counts a record whose point lies in this leaf.
+    fn count(&mut self, record: &Record) {
+        self.records += 1;
+        if let Some(m) = &record.mixture {
+            self.add_draw(m);
+        }
+    }
+
     fn add_draw(&mut self, m: &MixtureDraw) {
         let f = f64::from(m.integrand);
         for (sum, &a) in self.moments.iter_mut().zip(&SELECTION_CHOICES) {
@@ -114,6 +123,17 @@ impl Leaf {
             }
         }
         self.draws += 1;
+    }
+
+    /// A leaf with `directions`, `selection` and no records.
+    fn fresh(directions: QuadTree, selection: f32) -> Leaf {
+        Leaf {
+            directions,
+            records: 0,
+            selection,
+            moments: [0.0; SELECTION_CHOICES.len()],
+            draws: 0,
+        }
     }
 
     /// The choice of the smallest estimated second moment, or the fixed default
@@ -204,37 +224,68 @@ impl SdTree {
     /// Adds a record: `value` (incident radiance over the density of its direction)
     /// arrived at `p` from the unit direction `d`. The record counts in the leaf of
     /// `p` only; its value is spread by box filters over space and direction (see
-    /// [`deposit_filtered`](Self::deposit_filtered)).
+    /// [`route`](Self::route)).
     pub fn deposit(&mut self, record: &Record) {
-        let x = ((record.p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
-        let (leaf, size) = self.leaf_and_size_at(x);
-        let leaf_data = &mut self.leaves[leaf];
-        leaf_data.records += 1;
-        if let Some(m) = &record.mixture {
-            leaf_data.add_draw(m);
-        }
-        let value = f64::from(record.value);
-        if value.is_finite() && value > 0.0 {
-            self.deposit_filtered(record, x, size, value);
+        let route = self.route(record);
+        self.leaves[route.home as usize].count(record);
+        if let Some(target) = route.target {
+            let value = f64::from(record.value);
+            self.leaves[target as usize]
+                .directions
+                .deposit_filtered(record.dir, value);
         }
     }
 
-    /// Müller et al.'s spatial box filter, stochastically as they do it: the record
-    /// goes to the leaf at a point drawn uniformly from a box of `size` (the extent of
-    /// the leaf of the record's point, `x` in the unit cube of the tree's box), centred
-    /// on `x` (clamped to the tree's box), and is spread over directions there by
-    /// [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
+    /// Adds the records of `tiles` as [`deposit`](Self::deposit) would one by one, tile
+    /// after tile, to the bit, but the leaves in parallel: each leaf's sums (its count
+    /// and moments, its quadtree's energies) take their records in that same order,
+    /// whatever the number of threads, so the tree stays a function of the records.
+    pub fn deposit_all(&mut self, tiles: &[Vec<Record>]) {
+        let routes: Vec<Vec<Route>> = tiles
+            .par_iter()
+            .map(|tile| tile.iter().map(|r| self.route(r)).collect())
+            .collect();
+        let leaves = self.leaves.len();
+        let homes = LeafGroups::new(leaves, tiles, &routes, |r| Some(r.home));
+        let targets = LeafGroups::new(leaves, tiles, &routes, |r| r.target);
+        drop(routes);
+        self.leaves
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, leaf)| {
+                for record in homes.of(i) {
+                    leaf.count(record);
+                }
+                for record in targets.of(i) {
+                    let value = f64::from(record.value);
+                    leaf.directions.deposit_filtered(record.dir, value);
+                }
+            });
+    }
+
+    /// Where a record goes: the leaf of its point, which counts it, and the leaf its
+    /// value is deposited into (none when the value is not finite and positive), by
+    /// Müller et al.'s spatial box filter, stochastically as they do it: the leaf at a
+    /// point drawn uniformly from a box the size of the leaf of the record's point,
+    /// centred on it (clamped to the tree's box); there its value is spread over
+    /// directions by [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
     /// record itself, so records folded in a fixed order still give the same tree at
     /// any thread count. One leaf a record, where spreading it over every leaf the box
     /// overlaps (up to 8, each a quadtree splat) took a quarter of a guided Cornell
     /// run's instructions; in expectation the two are the same filter.
-    fn deposit_filtered(&mut self, record: &Record, x: Vec3, size: Vec3, value: f64) {
-        let jitter = record_jitter(record.p, record.dir) - Vec3::splat(0.5);
-        let jittered = (x + jitter * size).clamp(Vec3::ZERO, Vec3::ONE);
-        let leaf = self.leaf_at(jittered);
-        self.leaves[leaf]
-            .directions
-            .deposit_filtered(record.dir, value);
+    fn route(&self, record: &Record) -> Route {
+        let x = ((record.p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
+        let (home, size) = self.leaf_and_size_at(x);
+        let value = f64::from(record.value);
+        let target = (value.is_finite() && value > 0.0).then(|| {
+            let jitter = record_jitter(record.p, record.dir) - Vec3::splat(0.5);
+            let jittered = (x + jitter * size).clamp(Vec3::ZERO, Vec3::ONE);
+            self.leaf_at(jittered) as u32
+        });
+        Route {
+            home: home as u32,
+            target,
+        }
     }
 
     pub fn leaf_count(&self) -> usize {
@@ -264,14 +315,16 @@ impl SdTree {
 
     /// The same regions and cells with no records: where an iteration's records go.
     pub fn cleared(&self) -> SdTree {
-        let mut tree = self.clone();
-        for leaf in &mut tree.leaves {
-            leaf.directions = leaf.directions.cleared();
-            leaf.records = 0;
-            leaf.moments = [0.0; SELECTION_CHOICES.len()];
-            leaf.draws = 0;
+        SdTree {
+            min: self.min,
+            extent: self.extent,
+            nodes: self.nodes.clone(),
+            leaves: self
+                .leaves
+                .par_iter()
+                .map(|leaf| Leaf::fresh(leaf.directions.cleared(), leaf.selection))
+                .collect(),
         }
-        tree
     }
 
     /// The tree the next iteration samples from, after this one received the records
@@ -279,7 +332,8 @@ impl SdTree {
     /// than [`split_threshold`] records are split (both halves starting
     /// from the parent's records, half the count each, and split again while above),
     /// while the node budget allows; then every quadtree is rebuilt from its energy
-    /// ([`QuadTree::refined`]). Deterministic: leaves are visited in index order.
+    /// ([`QuadTree::refined`], the leaves in parallel, each a function of its own).
+    /// Deterministic: leaves are visited in index order.
     ///
     /// Each leaf's selection probability becomes the one of [`SELECTION_CHOICES`]
     /// whose estimated second moment `Σ F² / (p_α · p)` over the leaf's guided draws
@@ -290,43 +344,91 @@ impl SdTree {
     /// objective minimised over a grid). Split leaves keep their parent's.
     pub fn refined(&self, spp: u32, pixels: u64) -> SdTree {
         let threshold = split_threshold(spp, pixels);
-        let mut tree = self.clone();
-        for leaf in &mut tree.leaves {
-            leaf.selection = leaf.best_selection();
-        }
+        let mut nodes = self.nodes.clone();
+        // For each leaf of the new tree, the leaf of this one it comes from and its
+        // share of that leaf's records.
+        let mut source: Vec<usize> = (0..self.leaves.len()).collect();
+        let mut records: Vec<u64> = self.leaves.iter().map(|l| l.records).collect();
         let mut node = 0;
-        while node < tree.nodes.len() {
-            let n = tree.nodes[node];
-            if n.is_leaf() {
-                let records = tree.leaves[n.index()].records;
-                if records as f64 > threshold && tree.nodes.len() + 2 <= MAX_SPATIAL_NODES {
-                    tree.split(node, n.index(), n.axis() as u8);
-                }
+        while node < nodes.len() {
+            let n = nodes[node];
+            if n.is_leaf()
+                && records[n.index()] as f64 > threshold
+                && nodes.len() + 2 <= MAX_SPATIAL_NODES
+            {
+                // Both halves start from the parent's records; its children are
+                // visited later by this loop.
+                let (leaf, next) = (n.index(), (n.axis() as u8 + 1) % 3);
+                records[leaf] /= 2;
+                source.push(source[leaf]);
+                records.push(records[leaf]);
+                let first = nodes.len() as u32;
+                nodes.push(SpatialNode::leaf(leaf as u32, next));
+                nodes.push(SpatialNode::leaf(records.len() as u32 - 1, next));
+                nodes[node] = SpatialNode::inner(n.axis() as u8, first);
             }
             node += 1;
         }
-        for leaf in &mut tree.leaves {
-            leaf.directions = leaf.directions.refined();
-            leaf.records = 0;
-            leaf.moments = [0.0; SELECTION_CHOICES.len()];
-            leaf.draws = 0;
+        let leaves = source
+            .par_iter()
+            .map(|&s| {
+                let old = &self.leaves[s];
+                Leaf::fresh(old.directions.refined(), old.best_selection())
+            })
+            .collect();
+        SdTree {
+            min: self.min,
+            extent: self.extent,
+            nodes,
+            leaves,
         }
-        tree
+    }
+}
+
+/// Where a record goes (see [`SdTree::route`]).
+#[derive(Clone, Copy)]
+struct Route {
+    home: u32,
+    target: Option<u32>,
+}
+
+/// Records grouped by leaf, in their order within each leaf (a counting sort).
+struct LeafGroups<'r> {
+    /// Leaf `i`'s records are `records[start[i]..start[i + 1]]`.
+    start: Vec<usize>,
+    records: Vec<Option<&'r Record>>,
+}
+
+impl<'r> LeafGroups<'r> {
+    /// The records of `tiles` (with their `routes`) grouped by the leaf `key` gives.
+    fn new(
+        leaves: usize,
+        tiles: &'r [Vec<Record>],
+        routes: &[Vec<Route>],
+        key: impl Fn(&Route) -> Option<u32>,
+    ) -> Self {
+        let mut start = vec![0usize; leaves + 1];
+        for leaf in routes.iter().flatten().filter_map(&key) {
+            start[leaf as usize + 1] += 1;
+        }
+        for i in 0..leaves {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut records = vec![None; start[leaves]];
+        let pairs = tiles.iter().flatten().zip(routes.iter().flatten());
+        for (record, leaf) in pairs.filter_map(|(r, route)| Some((r, key(route)?))) {
+            records[next[leaf as usize]] = Some(record);
+            next[leaf as usize] += 1;
+        }
+        LeafGroups { start, records }
     }
 
-    /// Splits the leaf at `node` (index `leaf`) in two across `axis`; its children are
-    /// visited later by [`refined`](Self::refined)'s loop.
-    fn split(&mut self, node: usize, leaf: usize, axis: u8) {
-        let next = (axis + 1) % 3;
-        let mut half = self.leaves[leaf].clone();
-        half.records /= 2;
-        self.leaves[leaf] = half.clone();
-        let upper_leaf = self.leaves.len() as u32;
-        self.leaves.push(half);
-        let first = self.nodes.len() as u32;
-        self.nodes.push(SpatialNode::leaf(leaf as u32, next));
-        self.nodes.push(SpatialNode::leaf(upper_leaf, next));
-        self.nodes[node] = SpatialNode::inner(axis, first);
+    fn of(&self, leaf: usize) -> impl Iterator<Item = &'r Record> + '_ {
+        self.records[self.start[leaf]..self.start[leaf + 1]]
+            .iter()
+            .flatten()
+            .copied()
     }
 }
 
@@ -351,4 +453,63 @@ fn record_jitter(p: Vec3, d: Vec3) -> Vec3 {
     // 24 bits each, so that every value is exact in f32 and below 1.
     let unit = |v: u64| (v & 0xff_ffff) as f32 / (1u32 << 24) as f32;
     Vec3::new(unit(h >> 40), unit(h >> 16), unit(h2 >> 40))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    /// Records at random points and directions, a fifth of them guided draws and some
+    /// with values that are not deposited (zero, infinite).
+    fn records(rng: &mut Rng, n: usize) -> Vec<Record> {
+        (0..n)
+            .map(|i| {
+                let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - Vec3::ONE;
+                let dir = (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - Vec3::splat(0.5))
+                    .normalize_or(Vec3::Z);
+                let value = match i % 50 {
+                    0 => 0.0,
+                    1 => f32::INFINITY,
+                    _ => rng.f32() * 3.0,
+                };
+                let mixture = (i % 5 == 0).then(|| MixtureDraw {
+                    integrand: rng.f32(),
+                    bsdf_pdf: rng.f32(),
+                    guide_pdf: rng.f32(),
+                    pdf: 0.1 + rng.f32(),
+                });
+                Record {
+                    p,
+                    dir,
+                    value,
+                    mixture,
+                }
+            })
+            .collect()
+    }
+
+    /// Folding tiles of records leaf by leaf in parallel gives the tree depositing them
+    /// one by one does, to the bit (every sum taken in the same order), on a tree split
+    /// into many regions.
+    #[test]
+    fn parallel_fold_is_the_sequential_fold() {
+        let mut rng = Rng::seeded(3);
+        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        for r in &records(&mut rng, 20_000) {
+            tree.deposit(r);
+        }
+        // A small image: regions with more than 10 records are split.
+        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / 1200);
+        assert!(tree.leaf_count() > 500, "{} leaves", tree.leaf_count());
+        let tiles: Vec<Vec<Record>> = (0..7).map(|t| records(&mut rng, 1000 * t)).collect();
+        let mut one_by_one = tree.cleared();
+        for r in tiles.iter().flatten() {
+            one_by_one.deposit(r);
+        }
+        let mut folded = tree.cleared();
+        folded.deposit_all(&tiles);
+        assert!(one_by_one == folded);
+        assert!(one_by_one.refined(4, 1000) == folded.refined(4, 1000));
+    }
 }

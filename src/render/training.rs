@@ -21,15 +21,17 @@ use crate::scene::Camera;
 /// Mixed into the render's seed so that training samples are not the render's.
 const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 
-/// Records (48 bytes each: a guided draw carries its mixture's densities) held at
-/// once while an iteration's tiles wait to be folded into the tree, as far as there
-/// are more tiles than workers: 2.6M, about 126 MB.
-const RECORDS_PER_BATCH: usize = 5 << 19;
+/// Records held at once while an iteration's tiles wait to be folded into the tree,
+/// as far as there are more tiles than workers: 1.8M, about 132 MB (48 bytes each, a
+/// guided draw carrying its mixture's densities, and 24 more while they are folded:
+/// the leaves each goes to, and its place in each leaf's group; see
+/// [`SdTree::deposit_all`]).
+const RECORDS_PER_BATCH: usize = 7 << 18;
 
 /// Tiles rendered before their records are folded in: as many as fit
 /// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
 /// and its light sample), at most 64, but at least one per worker. At the last of 10
-/// iterations (512 spp, depth 8) a tile holds up to 101 MB of records, so a batch holds
+/// iterations (512 spp, depth 8) a tile holds up to 151 MB of records (folding them included), so a batch holds
 /// at most that per worker.
 fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
     let per_path = 2 * max_depth.max(1) as usize;
@@ -82,9 +84,7 @@ pub fn train_guide<A: Accel>(
             }
             // In tile order, whichever worker rendered them: the sums are the same
             // floating-point sums at any thread count.
-            for r in records.iter().flatten() {
-                filling.deposit(r);
-            }
+            filling.deposit_all(&records);
         }
         samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
         first_sample += spp;
