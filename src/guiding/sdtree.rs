@@ -1,7 +1,7 @@
 //! The spatial half of an SD-tree: a binary tree over the scene's bounding box, cut
 //! at the middle along x, y, z in turn, each leaf holding a directional [`QuadTree`].
 
-use glam::Vec3;
+use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
@@ -149,6 +149,20 @@ impl Leaf {
     }
 }
 
+/// Levels of the spatial tree that [`SdTree`]'s table resolves in one lookup: four
+/// cuts along each axis, a grid of 16³ cells (16 KiB). Nodes at depth `l` cut axis
+/// `l mod 3` (x at the root, each split cutting the next axis), so the nodes at depth
+/// 12 are the cells of that grid, and a cell's node is the one the descent reaches
+/// there; a descent then starts from it, which on the room's 2048-leaf tree saves
+/// most of its levels (about 240 instructions a lookup).
+const TABLE_LEVELS: u32 = 12;
+const TABLE_SIDE: u32 = 1 << (TABLE_LEVELS / 3);
+
+/// A cell of the table: the node the descent reaches within [`TABLE_LEVELS`] (bits
+/// 0–15; [`MAX_SPATIAL_NODES`] fits) and its depth (bits 16 on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TableCell(u32);
+
 /// A spatial-directional tree (see [`crate::guiding`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SdTree {
@@ -156,6 +170,8 @@ pub struct SdTree {
     extent: Vec3,
     nodes: Vec<SpatialNode>,
     leaves: Vec<Leaf>,
+    /// The grid of [`TABLE_LEVELS`], x fastest, then y, then z: a function of `nodes`.
+    table: Vec<TableCell>,
 }
 
 impl SdTree {
@@ -164,10 +180,12 @@ impl SdTree {
     pub fn new((min, max): (Vec3, Vec3)) -> SdTree {
         let pad = (max - min).max_element().max(1e-3) * 1e-3;
         let (min, max) = (min - Vec3::splat(pad), max + Vec3::splat(pad));
+        let nodes = vec![SpatialNode::leaf(0, 0)];
         SdTree {
             min,
             extent: (max - min).max(Vec3::splat(1e-6)),
-            nodes: vec![SpatialNode::leaf(0, 0)],
+            table: table_of(&nodes),
+            nodes,
             leaves: vec![Leaf::uniform()],
         }
     }
@@ -186,11 +204,26 @@ impl SdTree {
 
     /// The index of the leaf containing `x` (in the unit cube of the tree's box) and
     /// its extent there. Each level halves the coordinate it cuts and rescales it to
-    /// the half it fell in (exactly: a doubling, less one in the upper half).
+    /// the half it fell in (exactly: a doubling, less one in the upper half); the
+    /// table takes the first [`TABLE_LEVELS`] at once (`x · 16` less its integer part
+    /// is exactly what four such steps along an axis leave, and that integer's bits,
+    /// from the highest, are their choices).
     #[inline]
     fn leaf_and_size_at(&self, x: Vec3) -> (usize, Vec3) {
-        let (mut x, mut size) = (x.to_array(), [1.0f32; 3]);
-        let mut node = self.nodes[0];
+        let scaled = x * TABLE_SIDE as f32;
+        let cell = scaled.floor().min(Vec3::splat((TABLE_SIDE - 1) as f32));
+        let i = cell.as_uvec3();
+        let entry = self.table[((i.z * TABLE_SIDE + i.y) * TABLE_SIDE + i.x) as usize];
+        let (mut node, depth) = (self.nodes[(entry.0 & 0xffff) as usize], entry.0 >> 16);
+        if depth < TABLE_LEVELS {
+            // A leaf above the grid: its extent halves once per cut of each axis.
+            let cuts = |a: u32| (depth + 2 - a) / 3;
+            let size = Vec3::new(1.0, 1.0, 1.0)
+                / UVec3::new(1 << cuts(0), 1 << cuts(1), 1 << cuts(2)).as_vec3();
+            return (node.index(), size);
+        }
+        let mut x = (scaled - cell).to_array();
+        let mut size = [1.0 / TABLE_SIDE as f32; 3];
         while !node.is_leaf() {
             let a = node.axis();
             let upper = x[a] >= 0.5;
@@ -305,6 +338,7 @@ impl SdTree {
     /// Bytes the tree holds.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<SpatialNode>()
+            + self.table.capacity() * std::mem::size_of::<TableCell>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
             + self
                 .leaves
@@ -319,6 +353,7 @@ impl SdTree {
             min: self.min,
             extent: self.extent,
             nodes: self.nodes.clone(),
+            table: self.table.clone(),
             leaves: self
                 .leaves
                 .par_iter()
@@ -379,10 +414,32 @@ impl SdTree {
         SdTree {
             min: self.min,
             extent: self.extent,
+            table: table_of(&nodes),
             nodes,
             leaves,
         }
     }
+}
+
+/// The table of the tree of `nodes` (see [`TABLE_LEVELS`]).
+fn table_of(nodes: &[SpatialNode]) -> Vec<TableCell> {
+    let side = TABLE_SIDE;
+    let mut table = Vec::with_capacity((side * side * side) as usize);
+    for (z, y, x) in
+        (0..side).flat_map(|z| (0..side).flat_map(move |y| (0..side).map(move |x| (z, y, x))))
+    {
+        let cell = [x, y, z];
+        let (mut node, mut depth) = (0usize, 0u32);
+        while depth < TABLE_LEVELS && !nodes[node].is_leaf() {
+            let a = nodes[node].axis();
+            debug_assert_eq!(a as u32, depth % 3);
+            let bit = cell[a] >> (TABLE_LEVELS / 3 - 1 - depth / 3) & 1;
+            node = nodes[node].index() + bit as usize;
+            depth += 1;
+        }
+        table.push(TableCell(depth << 16 | node as u32));
+    }
+    table
 }
 
 /// Where a record goes (see [`SdTree::route`]).
@@ -487,6 +544,58 @@ mod tests {
                 }
             })
             .collect()
+    }
+
+    /// The leaf and extent a descent from the root finds, one level at a time.
+    fn descend(tree: &SdTree, x: Vec3) -> (usize, Vec3) {
+        let (mut x, mut size) = (x.to_array(), [1.0f32; 3]);
+        let mut node = tree.nodes[0];
+        while !node.is_leaf() {
+            let a = node.axis();
+            let upper = x[a] >= 0.5;
+            x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
+            size[a] *= 0.5;
+            node = tree.nodes[node.index() + usize::from(upper)];
+        }
+        (node.index(), Vec3::from_array(size))
+    }
+
+    /// The table's lookup finds the leaf and extent of the descent from the root, on
+    /// trees of one leaf, a few and hundreds (leaves above and below the table's
+    /// depth), at random points and on a grid of dyadic points (the cuts, 0 and 1).
+    #[test]
+    fn table_lookup_is_the_descent() {
+        let mut rng = Rng::seeded(4);
+        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let grid = (0..=64).flat_map(|i| {
+            (0..=64).flat_map(move |j| {
+                (0..=8).map(move |k| Vec3::new(i as f32, j as f32, k as f32 * 8.0) / 64.0)
+            })
+        });
+        let points: Vec<Vec3> = grid
+            .chain((0..20_000).map(|_| Vec3::new(rng.f32(), rng.f32(), rng.f32())))
+            .collect();
+        let check = |tree: &SdTree| {
+            for x in &points {
+                assert_eq!(tree.leaf_and_size_at(*x), descend(tree, *x), "at {x}");
+            }
+        };
+        check(&tree);
+        // The last round's records gather near the centre, where leaves get deeper
+        // than the table.
+        for (divisor, spread) in [(1, 1.0), (30, 1.0), (300, 0.02), (1200, 0.02)] {
+            for r in &records(&mut rng, 20_000) {
+                tree.deposit(&Record {
+                    p: r.p * spread,
+                    ..*r
+                });
+            }
+            tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / divisor);
+            check(&tree);
+        }
+        let finest = points.iter().map(|x| descend(&tree, *x).1.min_element());
+        assert!(finest.fold(1.0, f32::min) < 1.0 / TABLE_SIDE as f32);
+        assert!(tree.leaf_count() > 500, "{} leaves", tree.leaf_count());
     }
 
     /// Folding tiles of records leaf by leaf in parallel gives the tree depositing them
