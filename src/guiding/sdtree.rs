@@ -207,12 +207,15 @@ impl SdTree {
     /// the half it fell in (exactly: a doubling, less one in the upper half); the
     /// table takes the first [`TABLE_LEVELS`] at once (`x · 16` less its integer part
     /// is exactly what four such steps along an axis leave, and that integer's bits,
-    /// from the highest, are their choices).
+    /// from the highest, are their choices; `x = 1` takes the upper half every time,
+    /// and stays 1, as in the last cell).
     #[inline]
     fn leaf_and_size_at(&self, x: Vec3) -> (usize, Vec3) {
         let scaled = x * TABLE_SIDE as f32;
-        let cell = scaled.floor().min(Vec3::splat((TABLE_SIDE - 1) as f32));
-        let i = cell.as_uvec3();
+        // `x` is within [0, 1], so truncation is the floor (a conversion, where
+        // `floor` is a call to libm without SSE4.1).
+        let i = scaled.as_uvec3().min(UVec3::splat(TABLE_SIDE - 1));
+        let cell = i.as_vec3();
         let entry = self.table[((i.z * TABLE_SIDE + i.y) * TABLE_SIDE + i.x) as usize];
         let (mut node, depth) = (self.nodes[(entry.0 & 0xffff) as usize], entry.0 >> 16);
         if depth < TABLE_LEVELS {
