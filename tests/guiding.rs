@@ -204,6 +204,40 @@ fn folded_guide_is_normalised_and_follows_its_density() {
     assert!(above < 0.9, "the tree's own mass above: {above}");
 }
 
+/// A draw's density as the draw finds it (its own leaf cell standing in for a
+/// descent) is the folded density at the direction drawn, to the bit, so the mixture
+/// divides by the density that BSDF draws of the same direction get: for the uniform
+/// and the trained tree, three normals, uniforms on a 65×65 grid (the square's
+/// corners and edges among them) and random ones.
+#[test]
+fn a_draw_carries_its_own_density() {
+    let trained = trained_tree();
+    let uniform = QuadTree::uniform();
+    let normals = [
+        Vec3::Z,
+        Vec3::new(0.6, -0.3, 0.2).normalize(),
+        Vec3::new(-0.8, 0.1, -0.3).normalize(),
+    ];
+    let mut rng = Rng::seeded(17);
+    for tree in [&uniform, &trained] {
+        for &n in &normals {
+            let guide = VertexGuide::new(tree, n, 0.5, 0.5);
+            let edges = (0..=64).flat_map(|i| (0..=64).map(move |j| (i, j)));
+            let on_edges = edges.map(|(i, j)| Vec2::new(i as f32, j as f32) / 64.0);
+            let random = (0..20_000).map(|_| {
+                let (u1, u2) = rng.pair();
+                Vec2::new(u1, u2)
+            });
+            for u in on_edges.chain(random.collect::<Vec<_>>()) {
+                let u = u.min(Vec2::splat(1.0 - f32::EPSILON / 2.0));
+                let (d, pdf) = guide.sample_with_pdf(u);
+                assert_eq!(d, guide.sample(u));
+                assert_eq!(pdf.to_bits(), guide.pdf(d).to_bits(), "at {u}");
+            }
+        }
+    }
+}
+
 /// The box-filtered deposit adds exactly the value deposited, spreads it over the
 /// neighbouring cells of the cell it falls in, and keeps a direction's energy near it.
 #[test]

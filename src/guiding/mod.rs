@@ -34,7 +34,7 @@ mod vertex;
 
 pub use quadtree::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, QuadTree,
-    MAX_QUAD_DEPTH, SUBDIVISION_SHARE,
+    SquareCell, MAX_QUAD_DEPTH, SUBDIVISION_SHARE,
 };
 pub use record::{Draw, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record};
 pub use sdtree::{

@@ -1,7 +1,8 @@
 //! The spatial half of an SD-tree: a binary tree over the scene's bounding box, cut
 //! at the middle along x, y, z in turn, each leaf holding a directional [`QuadTree`].
 
-use glam::Vec3;
+use glam::{UVec3, Vec3};
+use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
 use super::record::{Draw, MixtureDraw, Record};
@@ -31,7 +32,7 @@ pub const MIN_LIT_DRAWS: u64 = 16;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
 /// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
-/// `MAX_SPATIAL_NODES · 12 + 2048 · (2001 · 64 + 136)` bytes (≈ 262 MB) while guiding
+/// `MAX_SPATIAL_NODES · 4 + 2048 · (2001 · 64 + 136)` bytes (≈ 262 MB) while guiding
 /// a render, twice that while training (the tree being filled beside the one that
 /// guides).
 pub const MAX_SPATIAL_NODES: usize = 4095;
@@ -55,12 +56,40 @@ pub fn split_threshold(spp: u32, pixels: u64) -> f64 {
     SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt() * scale
 }
 
-/// A node: an inner node's children (the lower half first) and the axis it cuts, or
-/// a leaf's index and the axis a split of it would cut (x at the root, then y, z, x…).
+/// A node in one `u32` (a descent reads 4 bytes a level): bit 31 says a leaf; bits 29
+/// and 30 hold an inner node's axis, or the axis a split of the leaf would cut (x at
+/// the root, then y, z, x…); bits 0–28 the index of an inner node's lower child (the
+/// upper one follows it) or of the leaf's [`Leaf`].
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum SpatialNode {
-    Inner { axis: u8, children: [u32; 2] },
-    Leaf { leaf: u32, axis: u8 },
+struct SpatialNode(u32);
+
+impl SpatialNode {
+    const LEAF: u32 = 1 << 31;
+    const INDEX: u32 = (1 << 29) - 1;
+
+    fn inner(axis: u8, lower_child: u32) -> Self {
+        SpatialNode(u32::from(axis) << 29 | lower_child)
+    }
+
+    fn leaf(leaf: u32, axis: u8) -> Self {
+        SpatialNode(Self::LEAF | u32::from(axis) << 29 | leaf)
+    }
+
+    #[inline]
+    fn is_leaf(self) -> bool {
+        self.0 & Self::LEAF != 0
+    }
+
+    #[inline]
+    fn axis(self) -> usize {
+        (self.0 >> 29 & 3) as usize
+    }
+
+    /// The leaf's index, or the inner node's lower child.
+    #[inline]
+    fn index(self) -> usize {
+        (self.0 & Self::INDEX) as usize
+    }
 }
 
 /// One region of space: its directional distribution, how many records fell in it
@@ -80,11 +109,26 @@ struct Leaf {
 
 impl Leaf {
     fn uniform() -> Leaf {
+        Leaf::fresh(QuadTree::uniform(), GUIDE_PROBABILITY, GUIDE_PROBABILITY)
+    }
+
+    /// A leaf with `directions`, these shares and no records.
+    fn fresh(directions: QuadTree, selection: f32, sky_share: f32) -> Leaf {
         Leaf {
-            directions: QuadTree::uniform(),
+            directions,
             records: 0,
-            selection: LearntShare::new(),
-            sky_share: LearntShare::new(),
+            selection: LearntShare::new(selection),
+            sky_share: LearntShare::new(sky_share),
+        }
+    }
+
+    /// Counts a record whose point lies in this leaf.
+    fn count(&mut self, record: &Record) {
+        self.records += 1;
+        match &record.draw {
+            Some(Draw::Scattered(m)) => self.selection.add(m, &SELECTION_CHOICES),
+            Some(Draw::Sky(m)) => self.sky_share.add(m, &SKY_SHARE_CHOICES),
+            None => {}
         }
     }
 }
@@ -104,9 +148,9 @@ struct LearntShare<const N: usize> {
 }
 
 impl<const N: usize> LearntShare<N> {
-    fn new() -> Self {
+    fn new(share: f32) -> Self {
         LearntShare {
-            share: GUIDE_PROBABILITY,
+            share,
             moments: [0.0; N],
             draws: 0,
             lit: 0,
@@ -128,26 +172,33 @@ impl<const N: usize> LearntShare<N> {
         self.lit += u64::from(f > 0.0);
     }
 
-    /// Takes the choice of the smallest estimated second moment (the fixed default
-    /// with too few draws, or too few that found light).
-    fn choose(&mut self, choices: &[f32; N]) {
+    /// The choice of the smallest estimated second moment (the fixed default with
+    /// too few draws, or too few that found light).
+    fn chosen(&self, choices: &[f32; N]) -> f32 {
         let few = self.draws < MIN_SELECTION_DRAWS || self.lit < MIN_LIT_DRAWS;
-        self.share = if few || self.moments.iter().all(|m| !m.is_finite()) {
-            GUIDE_PROBABILITY
-        } else {
-            let best = (0..N)
-                .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
-                .unwrap_or(0);
-            choices[best]
-        };
-    }
-
-    fn clear(&mut self) {
-        self.moments = [0.0; N];
-        self.draws = 0;
-        self.lit = 0;
+        if few || self.moments.iter().all(|m| !m.is_finite()) {
+            return GUIDE_PROBABILITY;
+        }
+        let best = (0..N)
+            .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
+            .unwrap_or(0);
+        choices[best]
     }
 }
+
+/// Levels of the spatial tree that [`SdTree`]'s table resolves in one lookup: four
+/// cuts along each axis, a grid of 16³ cells (16 KiB). Nodes at depth `l` cut axis
+/// `l mod 3` (x at the root, each split cutting the next axis), so the nodes at depth
+/// 12 are the cells of that grid, and a cell's node is the one the descent reaches
+/// there; a descent then starts from it, which on the room's 2048-leaf tree saves
+/// most of its levels (about 240 instructions a lookup).
+const TABLE_LEVELS: u32 = 12;
+const TABLE_SIDE: u32 = 1 << (TABLE_LEVELS / 3);
+
+/// A cell of the table: the node the descent reaches within [`TABLE_LEVELS`] (bits
+/// 0–15; [`MAX_SPATIAL_NODES`] fits) and its depth (bits 16 on).
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct TableCell(u32);
 
 /// A spatial-directional tree (see [`crate::guiding`]).
 #[derive(Clone, Debug, PartialEq)]
@@ -156,6 +207,8 @@ pub struct SdTree {
     extent: Vec3,
     nodes: Vec<SpatialNode>,
     leaves: Vec<Leaf>,
+    /// The grid of [`TABLE_LEVELS`], x fastest, then y, then z: a function of `nodes`.
+    table: Vec<TableCell>,
 }
 
 impl SdTree {
@@ -164,10 +217,12 @@ impl SdTree {
     pub fn new((min, max): (Vec3, Vec3)) -> SdTree {
         let pad = (max - min).max_element().max(1e-3) * 1e-3;
         let (min, max) = (min - Vec3::splat(pad), max + Vec3::splat(pad));
+        let nodes = vec![SpatialNode::leaf(0, 0)];
         SdTree {
             min,
             extent: (max - min).max(Vec3::splat(1e-6)),
-            nodes: vec![SpatialNode::Leaf { leaf: 0, axis: 0 }],
+            table: table_of(&nodes),
+            nodes,
             leaves: vec![Leaf::uniform()],
         }
     }
@@ -180,19 +235,43 @@ impl SdTree {
 
     /// The index of the leaf containing `x`, in the unit cube of the tree's box.
     #[inline]
-    fn leaf_at(&self, mut x: Vec3) -> usize {
-        let mut node = 0usize;
-        loop {
-            match self.nodes[node] {
-                SpatialNode::Leaf { leaf, .. } => return leaf as usize,
-                SpatialNode::Inner { axis, children } => {
-                    let a = axis as usize;
-                    let upper = x[a] >= 0.5;
-                    x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
-                    node = children[usize::from(upper)] as usize;
-                }
-            }
+    fn leaf_at(&self, x: Vec3) -> usize {
+        self.leaf_and_size_at(x).0
+    }
+
+    /// The index of the leaf containing `x` (in the unit cube of the tree's box) and
+    /// its extent there. Each level halves the coordinate it cuts and rescales it to
+    /// the half it fell in (exactly: a doubling, less one in the upper half); the
+    /// table takes the first [`TABLE_LEVELS`] at once (`x · 16` less its integer part
+    /// is exactly what four such steps along an axis leave, and that integer's bits,
+    /// from the highest, are their choices; `x = 1` takes the upper half every time,
+    /// and stays 1, as in the last cell).
+    #[inline]
+    fn leaf_and_size_at(&self, x: Vec3) -> (usize, Vec3) {
+        let scaled = x * TABLE_SIDE as f32;
+        // `x` is within [0, 1], so truncation is the floor (a conversion, where
+        // `floor` is a call to libm without SSE4.1).
+        let i = scaled.as_uvec3().min(UVec3::splat(TABLE_SIDE - 1));
+        let cell = i.as_vec3();
+        let entry = self.table[((i.z * TABLE_SIDE + i.y) * TABLE_SIDE + i.x) as usize];
+        let (mut node, depth) = (self.nodes[(entry.0 & 0xffff) as usize], entry.0 >> 16);
+        if depth < TABLE_LEVELS {
+            // A leaf above the grid: its extent halves once per cut of each axis.
+            let cuts = |a: u32| (depth + 2 - a) / 3;
+            let size = Vec3::new(1.0, 1.0, 1.0)
+                / UVec3::new(1 << cuts(0), 1 << cuts(1), 1 << cuts(2)).as_vec3();
+            return (node.index(), size);
         }
+        let mut x = (scaled - cell).to_array();
+        let mut size = [1.0 / TABLE_SIDE as f32; 3];
+        while !node.is_leaf() {
+            let a = node.axis();
+            let upper = x[a] >= 0.5;
+            x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
+            size[a] *= 0.5;
+            node = self.nodes[node.index() + usize::from(upper)];
+        }
+        (node.index(), Vec3::from_array(size))
     }
 
     /// The directional distribution of the region of `p`.
@@ -228,53 +307,67 @@ impl SdTree {
     /// Adds a record: `value` (incident radiance over the density of its direction)
     /// arrived at `p` from the unit direction `d`. The record counts in the leaf of
     /// `p` only; its value is spread by box filters over space and direction (see
-    /// [`deposit_filtered`](Self::deposit_filtered)).
+    /// [`route`](Self::route)).
     pub fn deposit(&mut self, record: &Record) {
-        let leaf = self.leaf_of(record.p);
-        let leaf_data = &mut self.leaves[leaf];
-        leaf_data.records += 1;
-        match &record.draw {
-            Some(Draw::Scattered(m)) => leaf_data.selection.add(m, &SELECTION_CHOICES),
-            Some(Draw::Sky(m)) => leaf_data.sky_share.add(m, &SKY_SHARE_CHOICES),
-            None => {}
-        }
-        let value = f64::from(record.value);
-        if value.is_finite() && value > 0.0 {
-            self.deposit_filtered(record.p, record.dir, value);
+        let route = self.route(record);
+        self.leaves[route.home as usize].count(record);
+        if let Some(target) = route.target {
+            let value = f64::from(record.value);
+            self.leaves[target as usize]
+                .directions
+                .deposit_filtered(record.dir, value);
         }
     }
 
-    /// Müller et al.'s spatial box filter, stochastically as they do it: the record
-    /// goes to the leaf at a point drawn uniformly from a box the size of the leaf of
-    /// `p`, centred on `p` (clamped to the tree's box), and is spread over directions
-    /// there by [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
+    /// Adds the records of `tiles` as [`deposit`](Self::deposit) would one by one, tile
+    /// after tile, to the bit, but the leaves in parallel: each leaf's sums (its count
+    /// and moments, its quadtree's energies) take their records in that same order,
+    /// whatever the number of threads, so the tree stays a function of the records.
+    pub fn deposit_all(&mut self, tiles: &[Vec<Record>]) {
+        let routes: Vec<Vec<Route>> = tiles
+            .par_iter()
+            .map(|tile| tile.iter().map(|r| self.route(r)).collect())
+            .collect();
+        let leaves = self.leaves.len();
+        let homes = LeafGroups::new(leaves, tiles, &routes, |r| Some(r.home));
+        let targets = LeafGroups::new(leaves, tiles, &routes, |r| r.target);
+        drop(routes);
+        self.leaves
+            .par_iter_mut()
+            .enumerate()
+            .for_each(|(i, leaf)| {
+                for record in homes.of(i) {
+                    leaf.count(record);
+                }
+                for record in targets.of(i) {
+                    let value = f64::from(record.value);
+                    leaf.directions.deposit_filtered(record.dir, value);
+                }
+            });
+    }
+
+    /// Where a record goes: the leaf of its point, which counts it, and the leaf its
+    /// value is deposited into (none when the value is not finite and positive), by
+    /// Müller et al.'s spatial box filter, stochastically as they do it: the leaf at a
+    /// point drawn uniformly from a box the size of the leaf of the record's point,
+    /// centred on it (clamped to the tree's box); there its value is spread over
+    /// directions by [`QuadTree::deposit_filtered`]. The draw comes from a hash of the
     /// record itself, so records folded in a fixed order still give the same tree at
     /// any thread count. One leaf a record, where spreading it over every leaf the box
     /// overlaps (up to 8, each a quadtree splat) took a quarter of a guided Cornell
     /// run's instructions; in expectation the two are the same filter.
-    fn deposit_filtered(&mut self, p: Vec3, d: Vec3, value: f64) {
-        let x = ((p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
-        let size = self.leaf_size(x);
-        let jittered =
-            (x + (record_jitter(p, d) - Vec3::splat(0.5)) * size).clamp(Vec3::ZERO, Vec3::ONE);
-        let leaf = self.leaf_at(jittered);
-        self.leaves[leaf].directions.deposit_filtered(d, value);
-    }
-
-    /// The extent, in the unit cube of the tree's box, of the leaf containing `x`.
-    fn leaf_size(&self, mut x: Vec3) -> Vec3 {
-        let (mut node, mut size) = (0usize, Vec3::ONE);
-        loop {
-            match self.nodes[node] {
-                SpatialNode::Leaf { .. } => return size,
-                SpatialNode::Inner { axis, children } => {
-                    let a = axis as usize;
-                    let upper = x[a] >= 0.5;
-                    x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
-                    size[a] *= 0.5;
-                    node = children[usize::from(upper)] as usize;
-                }
-            }
+    fn route(&self, record: &Record) -> Route {
+        let x = ((record.p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
+        let (home, size) = self.leaf_and_size_at(x);
+        let value = f64::from(record.value);
+        let target = (value.is_finite() && value > 0.0).then(|| {
+            let jitter = record_jitter(record.p, record.dir) - Vec3::splat(0.5);
+            let jittered = (x + jitter * size).clamp(Vec3::ZERO, Vec3::ONE);
+            self.leaf_at(jittered) as u32
+        });
+        Route {
+            home: home as u32,
+            target,
         }
     }
 
@@ -295,6 +388,7 @@ impl SdTree {
     /// Bytes the tree holds.
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<SpatialNode>()
+            + self.table.capacity() * std::mem::size_of::<TableCell>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
             + self
                 .leaves
@@ -305,14 +399,20 @@ impl SdTree {
 
     /// The same regions and cells with no records: where an iteration's records go.
     pub fn cleared(&self) -> SdTree {
-        let mut tree = self.clone();
-        for leaf in &mut tree.leaves {
-            leaf.directions = leaf.directions.cleared();
-            leaf.records = 0;
-            leaf.selection.clear();
-            leaf.sky_share.clear();
+        SdTree {
+            min: self.min,
+            extent: self.extent,
+            nodes: self.nodes.clone(),
+            table: self.table.clone(),
+            leaves: self
+                .leaves
+                .par_iter()
+                .map(|leaf| {
+                    let (selection, sky) = (leaf.selection.share, leaf.sky_share.share);
+                    Leaf::fresh(leaf.directions.cleared(), selection, sky)
+                })
+                .collect(),
         }
-        tree
     }
 
     /// The tree the next iteration samples from, after this one received the records
@@ -320,7 +420,8 @@ impl SdTree {
     /// than [`split_threshold`] records are split (both halves starting
     /// from the parent's records, half the count each, and split again while above),
     /// while the node budget allows; then every quadtree is rebuilt from its energy
-    /// ([`QuadTree::refined`]). Deterministic: leaves are visited in index order.
+    /// ([`QuadTree::refined`], the leaves in parallel, each a function of its own).
+    /// Deterministic: leaves are visited in index order.
     ///
     /// Each leaf's selection probability becomes the one of [`SELECTION_CHOICES`]
     /// whose estimated second moment `Σ F² / (p_α · p)` over the leaf's guided draws
@@ -333,52 +434,115 @@ impl SdTree {
     /// keep their parent's.
     pub fn refined(&self, spp: u32, pixels: u64) -> SdTree {
         let threshold = split_threshold(spp, pixels);
-        let mut tree = self.clone();
-        for leaf in &mut tree.leaves {
-            leaf.selection.choose(&SELECTION_CHOICES);
-            leaf.sky_share.choose(&SKY_SHARE_CHOICES);
-        }
+        let mut nodes = self.nodes.clone();
+        // For each leaf of the new tree, the leaf of this one it comes from and its
+        // share of that leaf's records.
+        let mut source: Vec<usize> = (0..self.leaves.len()).collect();
+        let mut records: Vec<u64> = self.leaves.iter().map(|l| l.records).collect();
         let mut node = 0;
-        while node < tree.nodes.len() {
-            if let SpatialNode::Leaf { leaf, axis } = tree.nodes[node] {
-                let records = tree.leaves[leaf as usize].records;
-                if records as f64 > threshold && tree.nodes.len() + 2 <= MAX_SPATIAL_NODES {
-                    tree.split(node, leaf as usize, axis);
-                }
+        while node < nodes.len() {
+            let n = nodes[node];
+            if n.is_leaf()
+                && records[n.index()] as f64 > threshold
+                && nodes.len() + 2 <= MAX_SPATIAL_NODES
+            {
+                // Both halves start from the parent's records; its children are
+                // visited later by this loop.
+                let (leaf, next) = (n.index(), (n.axis() as u8 + 1) % 3);
+                records[leaf] /= 2;
+                source.push(source[leaf]);
+                records.push(records[leaf]);
+                let first = nodes.len() as u32;
+                nodes.push(SpatialNode::leaf(leaf as u32, next));
+                nodes.push(SpatialNode::leaf(records.len() as u32 - 1, next));
+                nodes[node] = SpatialNode::inner(n.axis() as u8, first);
             }
             node += 1;
         }
-        for leaf in &mut tree.leaves {
-            leaf.directions = leaf.directions.refined();
-            leaf.records = 0;
-            leaf.selection.clear();
-            leaf.sky_share.clear();
+        let leaves = source
+            .par_iter()
+            .map(|&s| {
+                let old = &self.leaves[s];
+                let selection = old.selection.chosen(&SELECTION_CHOICES);
+                let sky_share = old.sky_share.chosen(&SKY_SHARE_CHOICES);
+                Leaf::fresh(old.directions.refined(), selection, sky_share)
+            })
+            .collect();
+        SdTree {
+            min: self.min,
+            extent: self.extent,
+            table: table_of(&nodes),
+            nodes,
+            leaves,
         }
-        tree
+    }
+}
+
+/// The table of the tree of `nodes` (see [`TABLE_LEVELS`]).
+fn table_of(nodes: &[SpatialNode]) -> Vec<TableCell> {
+    let side = TABLE_SIDE;
+    let mut table = Vec::with_capacity((side * side * side) as usize);
+    for (z, y, x) in
+        (0..side).flat_map(|z| (0..side).flat_map(move |y| (0..side).map(move |x| (z, y, x))))
+    {
+        let cell = [x, y, z];
+        let (mut node, mut depth) = (0usize, 0u32);
+        while depth < TABLE_LEVELS && !nodes[node].is_leaf() {
+            let a = nodes[node].axis();
+            debug_assert_eq!(a as u32, depth % 3);
+            let bit = cell[a] >> (TABLE_LEVELS / 3 - 1 - depth / 3) & 1;
+            node = nodes[node].index() + bit as usize;
+            depth += 1;
+        }
+        table.push(TableCell(depth << 16 | node as u32));
+    }
+    table
+}
+
+/// Where a record goes (see [`SdTree::route`]).
+#[derive(Clone, Copy)]
+struct Route {
+    home: u32,
+    target: Option<u32>,
+}
+
+/// Records grouped by leaf, in their order within each leaf (a counting sort).
+struct LeafGroups<'r> {
+    /// Leaf `i`'s records are `records[start[i]..start[i + 1]]`.
+    start: Vec<usize>,
+    records: Vec<Option<&'r Record>>,
+}
+
+impl<'r> LeafGroups<'r> {
+    /// The records of `tiles` (with their `routes`) grouped by the leaf `key` gives.
+    fn new(
+        leaves: usize,
+        tiles: &'r [Vec<Record>],
+        routes: &[Vec<Route>],
+        key: impl Fn(&Route) -> Option<u32>,
+    ) -> Self {
+        let mut start = vec![0usize; leaves + 1];
+        for leaf in routes.iter().flatten().filter_map(&key) {
+            start[leaf as usize + 1] += 1;
+        }
+        for i in 0..leaves {
+            start[i + 1] += start[i];
+        }
+        let mut next = start.clone();
+        let mut records = vec![None; start[leaves]];
+        let pairs = tiles.iter().flatten().zip(routes.iter().flatten());
+        for (record, leaf) in pairs.filter_map(|(r, route)| Some((r, key(route)?))) {
+            records[next[leaf as usize]] = Some(record);
+            next[leaf as usize] += 1;
+        }
+        LeafGroups { start, records }
     }
 
-    /// Splits the leaf at `node` (index `leaf`) in two across `axis`; its children are
-    /// visited later by [`refined`](Self::refined)'s loop.
-    fn split(&mut self, node: usize, leaf: usize, axis: u8) {
-        let next = (axis + 1) % 3;
-        let mut half = self.leaves[leaf].clone();
-        half.records /= 2;
-        self.leaves[leaf] = half.clone();
-        let upper_leaf = self.leaves.len() as u32;
-        self.leaves.push(half);
-        let first = self.nodes.len() as u32;
-        self.nodes.push(SpatialNode::Leaf {
-            leaf: leaf as u32,
-            axis: next,
-        });
-        self.nodes.push(SpatialNode::Leaf {
-            leaf: upper_leaf,
-            axis: next,
-        });
-        self.nodes[node] = SpatialNode::Inner {
-            axis,
-            children: [first, first + 1],
-        };
+    fn of(&self, leaf: usize) -> impl Iterator<Item = &'r Record> + '_ {
+        self.records[self.start[leaf]..self.start[leaf + 1]]
+            .iter()
+            .flatten()
+            .copied()
     }
 }
 
@@ -403,4 +567,123 @@ fn record_jitter(p: Vec3, d: Vec3) -> Vec3 {
     // 24 bits each, so that every value is exact in f32 and below 1.
     let unit = |v: u64| (v & 0xff_ffff) as f32 / (1u32 << 24) as f32;
     Vec3::new(unit(h >> 40), unit(h >> 16), unit(h2 >> 40))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::sampling::Rng;
+
+    /// Records at random points and directions, a fifth of them guided draws (of
+    /// scattered directions and of sky samples, alternately) and some with values
+    /// that are not deposited (zero, infinite).
+    fn records(rng: &mut Rng, n: usize) -> Vec<Record> {
+        (0..n)
+            .map(|i| {
+                let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - Vec3::ONE;
+                let dir = (Vec3::new(rng.f32(), rng.f32(), rng.f32()) - Vec3::splat(0.5))
+                    .normalize_or(Vec3::Z);
+                let value = match i % 50 {
+                    0 => 0.0,
+                    1 => f32::INFINITY,
+                    _ => rng.f32() * 3.0,
+                };
+                let draw = (i % 5 == 0).then(|| {
+                    let m = MixtureDraw {
+                        integrand: rng.f32(),
+                        base_pdf: rng.f32(),
+                        guide_pdf: rng.f32(),
+                        pdf: 0.1 + rng.f32(),
+                    };
+                    if i % 10 == 0 {
+                        Draw::Sky(m)
+                    } else {
+                        Draw::Scattered(m)
+                    }
+                });
+                Record {
+                    p,
+                    dir,
+                    value,
+                    draw,
+                }
+            })
+            .collect()
+    }
+
+    /// The leaf and extent a descent from the root finds, one level at a time.
+    fn descend(tree: &SdTree, x: Vec3) -> (usize, Vec3) {
+        let (mut x, mut size) = (x.to_array(), [1.0f32; 3]);
+        let mut node = tree.nodes[0];
+        while !node.is_leaf() {
+            let a = node.axis();
+            let upper = x[a] >= 0.5;
+            x[a] = if upper { x[a] * 2.0 - 1.0 } else { x[a] * 2.0 };
+            size[a] *= 0.5;
+            node = tree.nodes[node.index() + usize::from(upper)];
+        }
+        (node.index(), Vec3::from_array(size))
+    }
+
+    /// The table's lookup finds the leaf and extent of the descent from the root, on
+    /// trees of one leaf, a few and hundreds (leaves above and below the table's
+    /// depth), at random points and on a grid of dyadic points (the cuts, 0 and 1).
+    #[test]
+    fn table_lookup_is_the_descent() {
+        let mut rng = Rng::seeded(4);
+        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        let grid = (0..=64).flat_map(|i| {
+            (0..=64).flat_map(move |j| {
+                (0..=8).map(move |k| Vec3::new(i as f32, j as f32, k as f32 * 8.0) / 64.0)
+            })
+        });
+        let points: Vec<Vec3> = grid
+            .chain((0..20_000).map(|_| Vec3::new(rng.f32(), rng.f32(), rng.f32())))
+            .collect();
+        let check = |tree: &SdTree| {
+            for x in &points {
+                assert_eq!(tree.leaf_and_size_at(*x), descend(tree, *x), "at {x}");
+            }
+        };
+        check(&tree);
+        // The last round's records gather near the centre, where leaves get deeper
+        // than the table.
+        for (divisor, spread) in [(1, 1.0), (30, 1.0), (300, 0.02), (1200, 0.02)] {
+            for r in &records(&mut rng, 20_000) {
+                tree.deposit(&Record {
+                    p: r.p * spread,
+                    ..*r
+                });
+            }
+            tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / divisor);
+            check(&tree);
+        }
+        let finest = points.iter().map(|x| descend(&tree, *x).1.min_element());
+        assert!(finest.fold(1.0, f32::min) < 1.0 / TABLE_SIDE as f32);
+        assert!(tree.leaf_count() > 500, "{} leaves", tree.leaf_count());
+    }
+
+    /// Folding tiles of records leaf by leaf in parallel gives the tree depositing them
+    /// one by one does, to the bit (every sum taken in the same order), on a tree split
+    /// into many regions.
+    #[test]
+    fn parallel_fold_is_the_sequential_fold() {
+        let mut rng = Rng::seeded(3);
+        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0)));
+        for r in &records(&mut rng, 20_000) {
+            tree.deposit(r);
+        }
+        // A small image: regions with more than 10 records are split.
+        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / 1200);
+        assert!(tree.leaf_count() > 500, "{} leaves", tree.leaf_count());
+        let tiles: Vec<Vec<Record>> = (0..7).map(|t| records(&mut rng, 1000 * t)).collect();
+        let mut one_by_one = tree.cleared();
+        for r in tiles.iter().flatten() {
+            one_by_one.deposit(r);
+        }
+        let mut folded = tree.cleared();
+        folded.deposit_all(&tiles);
+        assert!(one_by_one == folded);
+        assert!(one_by_one.refined(4, 1000) == folded.refined(4, 1000));
+    }
 }

@@ -14,6 +14,7 @@
 
 use glam::{Vec2, Vec3};
 
+use super::quadtree::square_to_direction;
 use super::QuadTree;
 use crate::light::SkyGuide;
 
@@ -70,6 +71,25 @@ impl<'a> VertexGuide<'a> {
         } else {
             d
         }
+    }
+
+    /// [`sample`](Self::sample) and its density ([`pdf`](Self::pdf), bit for bit),
+    /// the draw's own leaf cell standing in for one of the two descents the density
+    /// takes (see [`QuadTree::pdf_knowing`]).
+    #[inline]
+    pub fn sample_with_pdf(&self, u: Vec2) -> (Vec3, f32) {
+        let (p, cell) = self.tree.sample_cell(u);
+        let drawn = square_to_direction(p);
+        let d = if drawn.dot(self.normal) < 0.0 {
+            self.mirror(drawn)
+        } else {
+            drawn
+        };
+        if d.dot(self.normal) <= 0.0 {
+            return (d, 0.0);
+        }
+        let pdf = self.tree.pdf_knowing(d, &cell) + self.tree.pdf_knowing(self.mirror(d), &cell);
+        (d, pdf)
     }
 
     /// Density per steradian of the folded distribution at the unit direction `d`.

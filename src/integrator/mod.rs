@@ -556,15 +556,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     ) -> Option<Step> {
         let from_guide = rng.f32() < guide.selection();
         let (u1, u2) = rng.pair();
-        let (wi, value, bsdf_pdf) = if from_guide {
-            let wi = guide.sample(Vec2::new(u1, u2));
+        let (wi, value, bsdf_pdf, guide_pdf) = if from_guide {
+            let (wi, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             let (value, pdf) = bsdf.eval_pdf(wo, wi);
-            (wi, value, pdf)
+            (wi, value, pdf, guide_pdf)
         } else {
             let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
-            (sample.wi, sample.value, sample.pdf)
+            (sample.wi, sample.value, sample.pdf, guide.pdf(sample.wi))
         };
-        let guide_pdf = guide.pdf(wi);
         let pdf = guide.mixture_of(bsdf_pdf, guide_pdf);
         if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
             return None;

@@ -21,16 +21,18 @@ use crate::scene::Camera;
 /// Mixed into the render's seed so that training samples are not the render's.
 const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 
-/// Records (48 bytes each: a guided draw carries its mixture's densities) held at
-/// once while an iteration's tiles wait to be folded into the tree, as far as there
-/// are more tiles than workers: 2.6M, about 126 MB.
-const RECORDS_PER_BATCH: usize = 5 << 19;
+/// Records of one batch of tiles, as far as there are more tiles than workers: 917k,
+/// about 66 MB (48 bytes each, a guided draw carrying its mixture's densities, and 24
+/// more while they are folded: the leaves each goes to, and its place in each leaf's
+/// group; see [`SdTree::deposit_all`]). Two batches are held at once, one folded
+/// while the next renders: about 132 MB.
+const RECORDS_PER_BATCH: usize = 7 << 17;
 
 /// Tiles rendered before their records are folded in: as many as fit
 /// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
 /// and its light sample), at most 64, but at least one per worker. At the last of 10
-/// iterations (512 spp, depth 8) a tile holds up to 101 MB of records, so a batch holds
-/// at most that per worker.
+/// iterations (512 spp, depth 8) a tile holds up to 151 MB of records (folding them
+/// included), so two batches hold at most twice that per worker.
 fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
     let per_path = 2 * max_depth.max(1) as usize;
     let per_tile = (TILE_SIZE * TILE_SIZE) as usize * spp as usize * per_path;
@@ -62,30 +64,16 @@ pub fn train_guide<A: Accel>(
             lights: tracer.lights.clone(),
             ..*tracer
         };
-        let mut filling = tree.cleared();
-        for batch in rects.chunks(tiles_per_batch(spp, settings.max_depth)) {
-            let records: Vec<Vec<Record>> = batch
-                .par_iter()
-                .map(|&rect| {
-                    train_tile(
-                        &guided,
-                        camera,
-                        settings,
-                        seed,
-                        rect,
-                        first_sample..first_sample + spp,
-                    )
-                })
-                .collect();
-            if stop.load(Ordering::Relaxed) != 0 {
-                return None;
-            }
-            // In tile order, whichever worker rendered them: the sums are the same
-            // floating-point sums at any thread count.
-            for r in records.iter().flatten() {
-                filling.deposit(r);
-            }
-        }
+        let samples_of_k = first_sample..first_sample + spp;
+        let render = |rect| train_tile(&guided, camera, settings, seed, rect, samples_of_k.clone());
+        let filling = fill(
+            tree.cleared(),
+            &rects,
+            spp,
+            settings.max_depth,
+            &render,
+            stop,
+        )?;
         samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
         first_sample += spp;
         tree = filling.refined(spp, u64::from(settings.width) * u64::from(settings.height));
@@ -98,6 +86,36 @@ pub fn train_guide<A: Accel>(
         memory_bytes: tree.memory_bytes(),
     };
     Some((tree, stats))
+}
+
+/// `filling` with the records of every tile of `rects` (`render` gives a tile's, at
+/// `spp` samples per pixel), rendered batch by batch, each batch's records folded
+/// in tile order while the next batch renders (the fold's order, and so the tree,
+/// does not depend on which worker rendered what). `None` when `stop` was set.
+fn fill(
+    mut filling: SdTree,
+    rects: &[(u32, u32, u32, u32)],
+    spp: u32,
+    max_depth: u32,
+    render: &(impl Fn((u32, u32, u32, u32)) -> Vec<Record> + Sync),
+    stop: &AtomicUsize,
+) -> Option<SdTree> {
+    let mut rendered: Option<Vec<Vec<Record>>> = None;
+    for batch in rects.chunks(tiles_per_batch(spp, max_depth)) {
+        let folding = rendered.take();
+        let (records, ()) = rayon::join(
+            || batch.par_iter().map(|&rect| render(rect)).collect(),
+            || folding.map_or((), |records| filling.deposit_all(&records)),
+        );
+        if stop.load(Ordering::Relaxed) != 0 {
+            return None;
+        }
+        rendered = Some(records);
+    }
+    if let Some(records) = rendered {
+        filling.deposit_all(&records);
+    }
+    Some(filling)
 }
 
 /// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`.
