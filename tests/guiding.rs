@@ -323,7 +323,8 @@ fn patchy_sky() -> Environment {
 /// Where the sky is chosen, a light sample's direction comes from the mixture of the
 /// sky's own sampling and a guide (trained and folded onto a hemisphere): for several
 /// shares, that density integrates to 1 over the sphere, the draws follow it
-/// (chi-square), and each sample carries the density and radiance of its direction.
+/// (chi-square), and each sample carries the density and radiance of its direction
+/// and the guide's density along it.
 #[test]
 fn sky_samples_mixed_with_a_guide_follow_their_density() {
     let floor = quad(
@@ -354,7 +355,7 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
                 draw: &|rng| {
                     lights
                         .sample_with_sky_guide(at, rng, share, &guide)
-                        .map(|s| s.dir)
+                        .map(|(s, _)| s.dir)
                 },
             },
             normal,
@@ -370,9 +371,11 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
         );
         let mut rng = Rng::seeded(14);
         for _ in 0..10_000 {
-            let s = lights
+            let (s, guide_pdf) = lights
                 .sample_with_sky_guide(at, &mut rng, share, &guide)
                 .expect("the sky has light");
+            // The guide's density comes with the sample, to the bit.
+            assert_eq!(guide_pdf, Some(guide.pdf(s.dir)), "{name}");
             let pdf = lights.pdf_sky_guided(s.dir, share, guide.pdf(s.dir));
             assert!(
                 (s.pdf - pdf).abs() <= 1e-4 * pdf,

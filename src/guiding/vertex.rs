@@ -119,8 +119,8 @@ impl<'a> VertexGuide<'a> {
 /// from the vertex rather than hidden by walls (a room lit through its windows).
 impl SkyGuide for VertexGuide<'_> {
     #[inline]
-    fn sample(&self, u: Vec2) -> Vec3 {
-        VertexGuide::sample(self, u)
+    fn sample_with_pdf(&self, u: Vec2) -> (Vec3, f32) {
+        VertexGuide::sample_with_pdf(self, u)
     }
 
     #[inline]

@@ -39,8 +39,7 @@ use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
 use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{
-    BsdfPdf, LightPdf, LightSample, LightSampler, LightSamplerKind, LightTarget, MixturePdf, Pdf,
-    Receiver,
+    BsdfPdf, LightPdf, LightSample, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver,
 };
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -475,20 +474,21 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         let at = receiver(surface, wo);
-        let light = match guide {
+        // A sky sample at a guided vertex comes with the guide's density along it.
+        let drawn = match guide {
             Some(guide) if GUIDED => {
                 self.lights
                     .sample_with_sky_guide(at, rng, guide.sky_share(), &guide)
             }
-            _ => self.lights.sample(at, rng),
+            _ => self.lights.sample(at, rng).map(|light| (light, None)),
         };
-        let Some(light) = light else {
+        let Some((light, sky_guide_pdf)) = drawn else {
             return Vec3::ZERO;
         };
         // Training learns a region's sky share from every sky sample, lit or not.
         let unlit = |recorder: &mut R| {
-            if GUIDED && guide.is_some() && light.target == LightTarget::Sky {
-                let draw = || self.sky_draw::<GUIDED>(guide, &light, Vec3::ZERO);
+            if let Some(guide_pdf) = sky_guide_pdf {
+                let draw = || Some(self.sky_draw(&light, guide_pdf, Vec3::ZERO));
                 recorder.light_sample(surface.p, light.dir, Vec3::ZERO, draw);
             }
             Vec3::ZERO
@@ -508,7 +508,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
-                power_heuristic(light.pdf, guide.mixture_pdf(bsdf_pdf, light.dir))
+                let guide_pdf = sky_guide_pdf.unwrap_or_else(|| guide.pdf(light.dir));
+                power_heuristic(light.pdf, guide.mixture_of(bsdf_pdf, guide_pdf))
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
@@ -516,30 +517,24 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             surface.p,
             light.dir,
             light.emission * (weight / light.pdf),
-            || self.sky_draw::<GUIDED>(guide, &light, f * light.emission),
+            || sky_guide_pdf.map(|g| self.sky_draw(&light, g, f * light.emission)),
         );
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
     }
 
-    /// What a guided vertex's sky sample tells training (see
-    /// [`LightSampler::sample_with_sky_guide`]): the draw its region's sky share is
-    /// learnt from, `integrand` being what it found (`f·cos · Le`, 0 where unlit).
+    /// What a guided vertex's sky sample (whose direction has density `guide_pdf` by
+    /// the guide) tells training (see [`LightSampler::sample_with_sky_guide`]): the
+    /// draw its region's sky share is learnt from, `integrand` being what it found
+    /// (`f·cos · Le`, 0 where unlit).
     #[inline]
-    fn sky_draw<const GUIDED: bool>(
-        &self,
-        guide: Option<VertexGuide>,
-        light: &LightSample,
-        integrand: Vec3,
-    ) -> Option<MixtureDraw> {
-        let guide = guide.filter(|_| GUIDED && light.target == LightTarget::Sky)?;
-        Some(MixtureDraw::new(
+    fn sky_draw(&self, light: &LightSample, guide_pdf: f32, integrand: Vec3) -> MixtureDraw {
+        MixtureDraw::new(
             integrand,
             self.lights.pdf_sky(light.dir),
-            self.lights
-                .pdf_sky_guided(light.dir, 1.0, guide.pdf(light.dir)),
+            self.lights.pdf_sky_guided(light.dir, 1.0, guide_pdf),
             light.pdf,
-        ))
+        )
     }
 
     /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the

@@ -40,9 +40,10 @@ use crate::scene::{Environment, Material, Texture, TriangleMesh};
 /// vertex: where light was found to arrive from, so where the sky is seen rather than
 /// hidden by walls), which sky sampling can draw from beside the sky's own distribution.
 pub trait SkyGuide {
-    /// A unit direction from two uniforms in `[0, 1)`.
-    fn sample(&self, u: Vec2) -> Vec3;
-    /// Density per steradian of [`sample`](Self::sample) at the unit direction `dir`.
+    /// A unit direction from two uniforms in `[0, 1)`, and its density.
+    fn sample_with_pdf(&self, u: Vec2) -> (Vec3, f32);
+    /// Density per steradian of [`sample_with_pdf`](Self::sample_with_pdf) at the unit
+    /// direction `dir`.
     fn pdf(&self, dir: Vec3) -> f32;
 }
 
@@ -464,6 +465,8 @@ impl LightSampler {
     /// comes with probability `share` from `guide` (directions learnt elsewhere, e.g.
     /// where the sky is seen from `at`) and otherwise from the sky's own distribution:
     /// the sample's density is the mixture's ([`pdf_sky_guided`](Self::pdf_sky_guided)).
+    /// With a sky sample comes the guide's density along its direction, which the
+    /// caller need not look up again.
     #[inline]
     pub fn sample_with_sky_guide(
         &self,
@@ -471,13 +474,14 @@ impl LightSampler {
         rng: &mut Rng,
         share: f32,
         guide: &impl SkyGuide,
-    ) -> Option<LightSample> {
+    ) -> Option<(LightSample, Option<f32>)> {
         let (u1, u2) = rng.pair();
         if u1 < self.sky_probability {
             let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
-            return self.sample_guided_sky((u1, u2), share, guide, rng);
+            let (sample, guide_pdf) = self.sample_guided_sky((u1, u2), share, guide, rng)?;
+            return Some((sample, Some(guide_pdf)));
         }
-        self.sample_emitter(at, (u1, u2), rng)
+        Some((self.sample_emitter(at, (u1, u2), rng)?, None))
     }
 
     /// The emitter half of [`sample`](Self::sample), from its 2-D draw.
@@ -554,26 +558,28 @@ impl LightSampler {
         share: f32,
         guide: &impl SkyGuide,
         rng: &mut Rng,
-    ) -> Option<LightSample> {
+    ) -> Option<(LightSample, f32)> {
         let sky = self.sky.as_ref()?;
-        let dir = if u1 < share {
-            guide.sample(Vec2::new((u1 / share).min(ONE_BELOW), u2))
+        let (dir, guide_pdf) = if u1 < share {
+            guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2))
         } else {
             let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
-            sky.sample(rng.refine(u1), rng.refine(u2))?.dir
+            let dir = sky.sample(rng.refine(u1), rng.refine(u2))?.dir;
+            (dir, guide.pdf(dir))
         };
-        let pdf = self.pdf_sky_guided(dir, share, guide.pdf(dir));
+        let pdf = self.pdf_sky_guided(dir, share, guide_pdf);
         if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
-        Some(LightSample {
+        let sample = LightSample {
             dir,
             distance: f32::INFINITY,
             point: None,
             pdf,
             target: LightTarget::Sky,
             emission: sky.radiance(dir),
-        })
+        };
+        Some((sample, guide_pdf))
     }
 
     /// The solid-angle density with which [`sample_with_sky_guide`](Self::sample_with_sky_guide)
