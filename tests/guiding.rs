@@ -142,14 +142,27 @@ fn trained_guide_is_normalised_and_follows_its_density() {
         Vec3::Z,
         1.0,
         2e-2,
-        Binning {
-            nz: 8,
-            nphi: 8,
-            sub: 64,
-            draws: 100_000,
-        },
+        GUIDE_BINNING,
         7,
     );
+}
+
+/// Bins and draws of the chi-square checks of a guide's density on the sphere.
+const GUIDE_BINNING: Binning = Binning {
+    nz: 8,
+    nphi: 8,
+    sub: 64,
+    draws: 100_000,
+};
+
+/// The normals the folded guide is checked around: +z, and two around which the
+/// trained tree's lobes lie on both sides.
+fn fold_normals() -> [Vec3; 3] {
+    [
+        Vec3::Z,
+        Vec3::new(0.6, -0.3, 0.2).normalize(),
+        Vec3::new(-0.8, 0.1, -0.3).normalize(),
+    ]
 }
 
 /// Folded onto a hemisphere (untrained, trained, and around a normal the lobes lie on
@@ -159,11 +172,7 @@ fn trained_guide_is_normalised_and_follows_its_density() {
 fn folded_guide_is_normalised_and_follows_its_density() {
     let trained = trained_tree();
     let uniform = QuadTree::uniform();
-    let normals = [
-        Vec3::Z,
-        Vec3::new(0.6, -0.3, 0.2).normalize(),
-        Vec3::new(-0.8, 0.1, -0.3).normalize(),
-    ];
+    let normals = fold_normals();
     for (tree, name) in [(&uniform, "uniform"), (&trained, "trained")] {
         for (i, &n) in normals.iter().enumerate() {
             let guide = VertexGuide::new(tree, n, 0.5, 0.5);
@@ -213,11 +222,7 @@ fn folded_guide_is_normalised_and_follows_its_density() {
 fn a_draw_carries_its_own_density() {
     let trained = trained_tree();
     let uniform = QuadTree::uniform();
-    let normals = [
-        Vec3::Z,
-        Vec3::new(0.6, -0.3, 0.2).normalize(),
-        Vec3::new(-0.8, 0.1, -0.3).normalize(),
-    ];
+    let normals = fold_normals();
     let mut rng = Rng::seeded(17);
     for tree in [&uniform, &trained] {
         for &n in &normals {
@@ -361,12 +366,7 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
             normal,
             1.0,
             2e-2,
-            Binning {
-                nz: 8,
-                nphi: 8,
-                sub: 64,
-                draws: 100_000,
-            },
+            GUIDE_BINNING,
             13,
         );
         let mut rng = Rng::seeded(14);
@@ -435,6 +435,15 @@ fn box_under_sky() -> Built {
     built
 }
 
+/// The centre of the hole in the ceiling of [`box_with_hole`], and points on its floor
+/// that the guide is checked at.
+const HOLE: Vec3 = Vec3::new(0.125, 1.0, 0.125);
+const FLOOR_POINTS: [Vec3; 3] = [
+    Vec3::new(0.1, -0.99, 0.2),
+    Vec3::new(-0.5, -0.99, -0.4),
+    Vec3::new(0.5, -0.99, 0.6),
+];
+
 fn inside_camera(size: u32) -> Camera {
     CameraSettings {
         eye: Vec3::new(0.0, 0.2, 0.9),
@@ -487,13 +496,8 @@ fn guide_learns_the_way_to_the_light_through_a_hole() {
         tree.memory_bytes()
     );
     assert!(tree.leaf_count() > 1, "the spatial tree split");
-    let hole = Vec3::new(0.125, 1.0, 0.125);
-    for p in [
-        Vec3::new(0.1, -0.99, 0.2),
-        Vec3::new(-0.5, -0.99, -0.4),
-        Vec3::new(0.5, -0.99, 0.6),
-    ] {
-        let axis = (hole - p).normalize();
+    for p in FLOOR_POINTS {
+        let axis = (HOLE - p).normalize();
         // The cone holds the hole (half-diagonal 0.18 at distance ≥ 2) with a margin
         // of a few cells of the guide.
         let half_angle = 12f32.to_radians();
@@ -520,13 +524,8 @@ fn guided_sky_samples_find_the_hole_and_stay_unbiased() {
     let scene = &built.scene;
     let lights = LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
         .with_sky(scene.sky.clone(), 2.0);
-    let hole = Vec3::new(0.125, 1.0, 0.125);
-    for p in [
-        Vec3::new(0.1, -0.99, 0.2),
-        Vec3::new(-0.5, -0.99, -0.4),
-        Vec3::new(0.5, -0.99, 0.6),
-    ] {
-        let axis = (hole - p).normalize();
+    for p in FLOOR_POINTS {
+        let axis = (HOLE - p).normalize();
         let half_angle = 12f32.to_radians();
         let guide = tree.guide_at(p, Vec3::Y);
         let share = guide.sky_share();
