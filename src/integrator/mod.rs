@@ -532,7 +532,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         MixtureDraw::new(
             integrand,
             self.lights.pdf_sky(light.dir),
-            self.lights.pdf_sky_guided(light.dir, 1.0, guide_pdf),
+            self.lights.sky_probability() * guide_pdf,
             light.pdf,
         )
     }

@@ -560,12 +560,15 @@ impl LightSampler {
         rng: &mut Rng,
     ) -> Option<(LightSample, f32)> {
         let sky = self.sky.as_ref()?;
-        let (dir, guide_pdf) = if u1 < share {
-            guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2))
+        let (dir, guide_pdf, emission) = if u1 < share {
+            let (dir, guide_pdf) =
+                guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2));
+            (dir, guide_pdf, sky.radiance(dir))
         } else {
             let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
-            let dir = sky.sample(rng.refine(u1), rng.refine(u2))?.dir;
-            (dir, guide.pdf(dir))
+            // The sky's own draw knows its texel's radiance (what `radiance` finds).
+            let drawn = sky.sample(rng.refine(u1), rng.refine(u2))?;
+            (drawn.dir, guide.pdf(drawn.dir), drawn.radiance)
         };
         let pdf = self.pdf_sky_guided(dir, share, guide_pdf);
         if !pdf.is_finite() || pdf <= 0.0 {
@@ -577,9 +580,15 @@ impl LightSampler {
             point: None,
             pdf,
             target: LightTarget::Sky,
-            emission: sky.radiance(dir),
+            emission,
         };
         Some((sample, guide_pdf))
+    }
+
+    /// The probability that a light sample picks the sky (0 without one).
+    #[inline]
+    pub fn sky_probability(&self) -> f32 {
+        self.sky_probability
     }
 
     /// The solid-angle density with which [`sample_with_sky_guide`](Self::sample_with_sky_guide)
