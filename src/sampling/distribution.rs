@@ -5,11 +5,19 @@
 /// construction). Sampling costs one multiplication and one comparison, whatever `n`.
 #[derive(Clone, Debug, Default)]
 pub struct AliasTable {
-    /// Probability of keeping bin `i` rather than jumping to `alias[i]`.
-    keep: Vec<f32>,
-    alias: Vec<u32>,
+    /// Each bin's coin, side by side so that a draw reads one place.
+    entries: Vec<AliasEntry>,
     /// Normalised probability of each outcome.
     pmf: Vec<f32>,
+}
+
+/// One bin of an alias table: the probability of keeping the bin's own outcome rather
+/// than jumping to `alias`. Public so that a table can live inside other records (an
+/// environment map keeps each texel's entry beside its radiance: [`alias_draw`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct AliasEntry {
+    pub keep: f32,
+    pub alias: u32,
 }
 
 impl AliasTable {
@@ -52,7 +60,12 @@ impl AliasTable {
             keep[i] = 1.0;
             alias[i] = i as u32;
         }
-        Some(AliasTable { keep, alias, pmf })
+        let entries = keep
+            .into_iter()
+            .zip(alias)
+            .map(|(keep, alias)| AliasEntry { keep, alias })
+            .collect();
+        Some(AliasTable { entries, pmf })
     }
 
     pub fn len(&self) -> usize {
@@ -69,31 +82,43 @@ impl AliasTable {
         self.pmf[i]
     }
 
+    /// Bin `i`'s entry.
+    #[inline]
+    pub fn entry(&self, i: usize) -> AliasEntry {
+        self.entries[i]
+    }
+
     /// An outcome drawn with probability [`pmf`](Self::pmf) from one uniform `u` in
-    /// `[0, 1)`, and a fresh uniform in `[0, 1)` made of what the choice left of `u`.
-    ///
-    /// The integer part of `u · n` picks a column and its fraction tosses the column's
-    /// coin; the fraction, rescaled within the side of the coin it fell on, is uniform
-    /// and independent of the outcome. Passing it on to the next draw (a point on the
-    /// chosen light) keeps a stratified `u` stratified over outcome and point together.
-    /// `u` needs about `log2(n)` more bits than the fraction should keep, so pass an
-    /// `f64` with random low bits ([`Rng::refine`](super::Rng::refine)).
+    /// `[0, 1)`, and a fresh uniform in `[0, 1)` made of what the choice left of `u`
+    /// (see [`alias_draw`]).
     #[inline]
     pub fn sample(&self, u: f64) -> (usize, f32) {
-        let scaled = u * self.pmf.len() as f64;
-        let column = (scaled as usize).min(self.pmf.len() - 1);
-        let fraction = (scaled - column as f64) as f32;
-        let keep = self.keep[column];
-        let (outcome, rest) = if fraction < keep {
-            (column, fraction / keep)
-        } else {
-            (
-                self.alias[column] as usize,
-                (fraction - keep) / (1.0 - keep),
-            )
-        };
-        (outcome, rest.clamp(0.0, ONE_BELOW))
+        alias_draw(self.entries.len(), u, |i| self.entries[i])
     }
+}
+
+/// The draw of an alias table of `n` bins whose entries `entry` gives, from one
+/// uniform `u` in `[0, 1)`: the outcome, and a fresh uniform in `[0, 1)` made of what
+/// the choice left of `u`.
+///
+/// The integer part of `u · n` picks a bin and its fraction tosses the bin's coin; the
+/// fraction, rescaled within the side of the coin it fell on, is uniform and
+/// independent of the outcome. Passing it on to the next draw (a point on the chosen
+/// light) keeps a stratified `u` stratified over outcome and point together. `u` needs
+/// about `log2(n)` more bits than the fraction should keep, so pass an `f64` with
+/// random low bits ([`Rng::refine`](super::Rng::refine)).
+#[inline]
+pub fn alias_draw(n: usize, u: f64, entry: impl Fn(usize) -> AliasEntry) -> (usize, f32) {
+    let scaled = u * n as f64;
+    let column = (scaled as usize).min(n - 1);
+    let fraction = (scaled - column as f64) as f32;
+    let AliasEntry { keep, alias } = entry(column);
+    let (outcome, rest) = if fraction < keep {
+        (column, fraction / keep)
+    } else {
+        (alias as usize, (fraction - keep) / (1.0 - keep))
+    };
+    (outcome, rest.clamp(0.0, ONE_BELOW))
 }
 
 /// The largest `f32` below 1: rescaled fractions can round up to 1.0.
