@@ -412,14 +412,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
     fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
-        let weight = how.weight(|_, sky_guide| match sky_guide {
-            Some((share, guide_pdf)) => self.lights.pdf_sky_guided(dir, share, guide_pdf),
-            None => self.lights.pdf_sky(dir),
-        });
+        let Some(sky) = &self.scene.sky else {
+            return Vec3::ZERO;
+        };
+        // One lookup for both: the density's texel is the radiance's.
+        let (radiance, sky_pdf) = sky.radiance_and_pdf(dir);
+        let weight = how.weight(|_, sky_guide| self.lights.sky_density(sky_pdf, sky_guide));
         if weight == 0.0 {
             return Vec3::ZERO;
         }
-        self.scene.sky_radiance(dir) * weight
+        radiance * weight
     }
 
     /// Follows the BSDF's own sample. A `Mis` emission weight is completed with the

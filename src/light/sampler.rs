@@ -560,17 +560,18 @@ impl LightSampler {
         rng: &mut Rng,
     ) -> Option<(LightSample, f32)> {
         let sky = self.sky.as_ref()?;
-        let (dir, guide_pdf, emission) = if u1 < share {
+        let (dir, guide_pdf, (emission, sky_pdf)) = if u1 < share {
             let (dir, guide_pdf) =
                 guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2));
-            (dir, guide_pdf, sky.radiance(dir))
+            (dir, guide_pdf, sky.radiance_and_pdf(dir))
         } else {
             let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
             // The sky's own draw knows its texel's radiance (what `radiance` finds).
             let drawn = sky.sample(rng.refine(u1), rng.refine(u2))?;
-            (drawn.dir, guide.pdf(drawn.dir), drawn.radiance)
+            let radiance_and_pdf = (drawn.radiance, sky.pdf(drawn.dir));
+            (drawn.dir, guide.pdf(drawn.dir), radiance_and_pdf)
         };
-        let pdf = self.pdf_sky_guided(dir, share, guide_pdf);
+        let pdf = self.sky_density(sky_pdf, Some((share, guide_pdf)));
         if !pdf.is_finite() || pdf <= 0.0 {
             return None;
         }
@@ -597,7 +598,7 @@ impl LightSampler {
     #[inline]
     pub fn pdf_sky_guided(&self, dir: Vec3, share: f32, guide_pdf: f32) -> f32 {
         self.sky.as_ref().map_or(0.0, |sky| {
-            self.sky_probability * ((1.0 - share) * sky.pdf(dir) + share * guide_pdf)
+            self.sky_density(sky.pdf(dir), Some((share, guide_pdf)))
         })
     }
 
@@ -607,7 +608,23 @@ impl LightSampler {
     pub fn pdf_sky(&self, dir: Vec3) -> f32 {
         self.sky
             .as_ref()
-            .map_or(0.0, |sky| self.sky_probability * sky.pdf(dir))
+            .map_or(0.0, |sky| self.sky_density(sky.pdf(dir), None))
+    }
+
+    /// The density of a sky direction whose density by the sky's own distribution is
+    /// `sky_pdf` ([`Environment::pdf`]), as [`sample`](Self::sample) picks it, or with
+    /// `sky_guide` (the guide's share and density) as
+    /// [`sample_with_sky_guide`](Self::sample_with_sky_guide) does; 0 where the
+    /// sky is not sampled at all (none, or black).
+    #[inline]
+    pub fn sky_density(&self, sky_pdf: f32, sky_guide: Option<(f32, f32)>) -> f32 {
+        match (&self.sky, sky_guide) {
+            (None, _) => 0.0,
+            (Some(_), None) => self.sky_probability * sky_pdf,
+            (Some(_), Some((share, guide_pdf))) => {
+                self.sky_probability * ((1.0 - share) * sky_pdf + share * guide_pdf)
+            }
+        }
     }
 
     /// The solid-angle density with which [`sample`](Self::sample) at `at` picks the

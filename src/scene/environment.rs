@@ -192,6 +192,16 @@ impl Environment {
         self.texels[self.texel_index(self.map_coordinates(dir))].radiance
     }
 
+    /// [`radiance`](Self::radiance) and [`pdf`](Self::pdf) along `dir` from one
+    /// lookup (both are read where a ray leaves the scene and multiple importance
+    /// sampling weighs it).
+    #[inline]
+    pub fn radiance_and_pdf(&self, dir: Vec3) -> (Vec3, f32) {
+        let uv = self.map_coordinates(dir);
+        let texel = &self.texels[self.texel_index(uv)];
+        (texel.radiance, self.density(texel, uv.y))
+    }
+
     /// Solid-angle density with which [`sample`](Self::sample) draws `dir`.
     #[inline]
     pub fn pdf(&self, dir: Vec3) -> f32 {
