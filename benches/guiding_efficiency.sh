@@ -39,15 +39,17 @@ run() { # label reference render-arguments...
 for rep in $(seq "${REPS:-2}"); do
   seed=$((rep + 10))
   for scene in ${SCENES:-room stair orig glossy}; do
-    # Unguided spp, guided spp, training iterations: the guided render takes fewer
-    # samples so that both take about the same time with training included.
+    # Unguided spp, guided spp, training iterations: the guided render traces as many
+    # paths as the unguided one (training's 2^it - 1 samples are the first of its
+    # --spp, `sd-tree 6`; with `sd-tree 5` and before, g was 224 and 56, training
+    # coming on top).
     case $scene in
-      room) args=("${ROOM[@]}"); ref=$ROOM_REF; u=256; g=224; it=5 ;;
-      stair) args=("${STAIR[@]}"); ref=$STAIR_REF; u=256; g=224; it=5 ;;
+      room) args=("${ROOM[@]}"); ref=$ROOM_REF; u=256; g=255; it=5 ;;
+      stair) args=("${STAIR[@]}"); ref=$STAIR_REF; u=256; g=255; it=5 ;;
       orig) args=("$ROOT/meshes/CornellBox-Original.obj" "${BOX[@]}")
-            ref=$REFS/cornell-box/cornell_ref_8192spp.exr; u=64; g=56; it=3 ;;
+            ref=$REFS/cornell-box/cornell_ref_8192spp.exr; u=64; g=63; it=3 ;;
       glossy) args=("$ROOT/meshes/CornellBox-GlossyMix.obj" "${BOX[@]}")
-              ref=$REFS/cornell-glossy/CornellBox-GlossyMix_ref_4096spp.exr; u=64; g=56; it=3 ;;
+              ref=$REFS/cornell-glossy/CornellBox-GlossyMix_ref_4096spp.exr; u=64; g=63; it=3 ;;
       *) echo "error: unknown scene '$scene' (room, stair, orig, glossy)" >&2; exit 2 ;;
     esac
     run "$scene mis" "$ref" "${args[@]}" --seed $seed --spp $u

@@ -23,10 +23,10 @@ use ember::guiding::{
 use ember::image::compare;
 use ember::integrator::{IntegratorKind, PathTracer};
 use ember::light::{LightSampler, Receiver};
-use ember::render::{guide_view, identity, render, train_guide, RenderSettings};
+use ember::render::{guide_view, identity, render, train_guide, Adaptive, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings, Environment};
-use glam::{Vec2, Vec3};
+use glam::{DVec3, Vec2, Vec3};
 
 /// The untrained guide is the uniform density on the sphere, `1/4π`, and its draws
 /// follow it.
@@ -564,7 +564,8 @@ fn guided_sky_samples_find_the_hole_and_stay_unbiased() {
 #[test]
 fn guided_render_is_the_same_at_any_thread_count() {
     let built = box_with_hole();
-    let settings = guided_settings(24, 4, 4);
+    // 4 iterations: samples 0..15 are training's, 15..20 the passes'.
+    let settings = guided_settings(24, 20, 4);
     let on = |threads| {
         let pool = rayon::ThreadPoolBuilder::new()
             .num_threads(threads)
@@ -596,25 +597,47 @@ fn run_film(built: &Built, settings: &RenderSettings, film: Film, stop: Option<u
     render_stopping(&built.scene, &built.accel, &camera, settings, film, 1, stop)
 }
 
-/// Every process trains the same guide before rendering: a guided render stopped and
-/// resumed equals the uninterrupted one bit for bit, and shards (sample ranges) merge
-/// to it up to the regrouping of f64 sums.
+/// Whether two films of one render hold the same samples: counts exactly, sums up to
+/// the regrouping of `f64` additions (shards merged).
+fn assert_same_samples(a: &Film, b: &Film) {
+    for (a, b) in a.pixels.iter().zip(&b.pixels) {
+        assert_eq!((a.done, a.kept, a.converged), (b.done, b.kept, b.converged));
+        let (a, b) = (a.radiance, b.radiance);
+        assert!((a - b).abs().max_element() <= 1e-14 * b.max_element().max(1e-300));
+    }
+}
+
+/// Every process trains the same guide before rendering, and the training's samples
+/// are the film's first: a guided render stopped and resumed (during training or
+/// after it) equals the uninterrupted one bit for bit, and shards (sample ranges,
+/// one cutting through the training's samples) merge to it up to the regrouping of
+/// f64 sums.
 #[test]
 fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
     let built = box_with_hole();
-    let settings = guided_settings(20, 6, 3);
+    // 5 iterations: samples 0..31 are training's, 31..40 the passes'.
+    let settings = guided_settings(20, 40, 5);
     let film = |samples| Film::new(settings.width, settings.height, samples);
-    let whole = run_film(&built, &settings, film(0..6), None);
-    let part = run_film(&built, &settings, film(0..6), Some(700));
-    assert!(part.min_done() < 6, "stopped early");
-    let resumed = run_film(&built, &settings, part, None);
-    assert_eq!(resumed.pixels, whole.pixels);
-    let mut merged = run_film(&built, &settings, film(0..2), None);
-    merged.merge(&run_film(&built, &settings, film(2..6), None));
-    for (a, b) in merged.pixels.iter().zip(&whole.pixels) {
-        assert_eq!((a.done, a.kept), (b.done, b.kept));
-        let (a, b) = (a.radiance, b.radiance);
-        assert!((a - b).abs().max_element() <= 1e-14 * b.max_element().max(1e-300));
+    let whole = run_film(&built, &settings, film(0..40), None);
+    assert!(whole.pixels.iter().all(|p| p.done == 40));
+    // Stopped in training's second iteration (400 pixels, 400 + 800 samples), and
+    // in the passes.
+    for (stop, taken) in [(700, 1..31), (400 * 35, 31..40)] {
+        let part = run_film(&built, &settings, film(0..40), Some(stop));
+        assert!(
+            taken.contains(&part.min_done()),
+            "stopped at {}",
+            part.min_done()
+        );
+        let resumed = run_film(&built, &settings, part, None);
+        assert_eq!(resumed.pixels, whole.pixels, "resumed after {stop} samples");
+    }
+    for cut in [12, 31] {
+        let mut merged = run_film(&built, &settings, film(0..cut), None);
+        let rest = run_film(&built, &settings, film(cut..40), None);
+        assert!(rest.pixels.iter().all(|p| p.done == 40 - cut));
+        merged.merge(&rest);
+        assert_same_samples(&merged, &whole);
     }
     // And the guide matters: the unguided film differs.
     let unguided = RenderSettings {
@@ -622,9 +645,94 @@ fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
         ..settings
     };
     assert_ne!(
-        run_film(&built, &unguided, film(0..6), None).pixels,
+        run_film(&built, &unguided, film(0..40), None).pixels,
         whole.pixels
     );
+}
+
+/// With fewer samples than training takes (6 of 7), the film is training's samples
+/// only: a stop during training resumes to the uninterrupted film, and shards merge
+/// to it.
+#[test]
+fn guided_renders_of_fewer_samples_than_training_resume_and_merge() {
+    let built = box_with_hole();
+    let settings = guided_settings(20, 6, 3);
+    let film = |samples| Film::new(settings.width, settings.height, samples);
+    let whole = run_film(&built, &settings, film(0..6), None);
+    assert!(whole.pixels.iter().all(|p| p.done == 6));
+    let part = run_film(&built, &settings, film(0..6), Some(700));
+    assert!(part.min_done() < 6, "stopped early");
+    let resumed = run_film(&built, &settings, part, None);
+    assert_eq!(resumed.pixels, whole.pixels);
+    let mut merged = run_film(&built, &settings, film(0..2), None);
+    merged.merge(&run_film(&built, &settings, film(2..6), None));
+    assert_same_samples(&merged, &whole);
+}
+
+/// Adaptive sampling sees training's samples as the film's: its first decision is
+/// taken where training ends (every pixel at 15), and a guided adaptive render
+/// stopped during training or in its passes resumes to the uninterrupted film.
+#[test]
+fn guided_adaptive_renders_resume_to_the_uninterrupted_film() {
+    let built = box_with_hole();
+    let settings = RenderSettings {
+        adaptive: Some(Adaptive {
+            threshold: 0.26,
+            min_spp: 8,
+        }),
+        ..guided_settings(20, 64, 4)
+    };
+    let film = || Film::new(settings.width, settings.height, 0..64);
+    let whole = run_film(&built, &settings, film(), None);
+    let at = |spp: u32| whole.pixels.iter().filter(|p| p.done == spp).count();
+    let (fifteen, all) = (at(15), at(64));
+    eprintln!("guided adaptive: of 400 pixels, {fifteen} stopped at 15 spp, {all} took 64");
+    assert!(whole.pixels.iter().all(|p| p.done >= 15));
+    assert!(fifteen > 0 && fifteen + all < 400 && all > 0);
+    for stop in [500, 400 * 20] {
+        let part = run_film(&built, &settings, film(), Some(stop));
+        assert!(!part.is_complete(), "stopped after {stop} samples");
+        let resumed = run_film(&built, &settings, part, None);
+        assert_eq!(resumed.pixels, whole.pixels, "resumed after {stop} samples");
+    }
+}
+
+/// Training's samples count in the image: in a closed furnace where every surface
+/// emits `Le` and reflects with albedo `a`, the radiance along every camera ray is
+/// `Le · Σ_{k<N} a^k` (paths of at most N segments). A guided render of exactly the
+/// training's samples (15 spp over 4 iterations: none of the passes') finds it.
+#[test]
+fn training_samples_in_the_image_find_the_furnace_radiance() {
+    let albedo = 0.6f32;
+    let le = Vec3::new(1.0, 0.5, 0.25);
+    let built = build(&inward_cube(4, 0), vec![diffuse(Vec3::splat(albedo), le)]);
+    let settings = guided_settings(24, 15, 4);
+    let film = run_film(
+        &built,
+        &settings,
+        Film::new(settings.width, settings.height, 0..15),
+        None,
+    );
+    assert!(film.pixels.iter().all(|p| p.done == 15 && p.kept == 15));
+    let truth: f64 = (0..settings.max_depth)
+        .map(|k| f64::from(albedo).powi(k as i32))
+        .sum();
+    let truth = le.as_dvec3() * truth;
+    let n = film.total_done() as f64;
+    let sum: DVec3 = film.pixels.iter().map(|p| p.radiance).sum();
+    let sum_sq: DVec3 = film.pixels.iter().map(|p| p.radiance_sq).sum();
+    let mean = sum / n;
+    let sigma = ((sum_sq / n - mean * mean).max(DVec3::ZERO) / n).powf(0.5);
+    eprintln!("guided furnace at 15 training spp: {mean} ± {sigma}, expected {truth}");
+    for c in 0..3 {
+        assert!(
+            (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
+            "channel {c}: {} ± {}, expected {}",
+            mean[c],
+            sigma[c],
+            truth[c]
+        );
+    }
 }
 
 /// Guiding is part of a render's identity (checkpoints and shards of another setting

@@ -141,7 +141,8 @@ pub struct RenderArgs {
     integrator: IntegratorArg,
     /// Path guiding (Müller et al. 2017, with --integrator mis): an SD-tree of the
     /// incident light, trained before rendering (2^N − 1 spp over
-    /// --guiding-iterations N), guides half of the BSDF samples.
+    /// --guiding-iterations N), guides half of the BSDF samples. The training's
+    /// samples are the image's first 2^N − 1 of --spp.
     #[arg(long)]
     guiding: bool,
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
@@ -944,9 +945,10 @@ fn report_finished(
     };
     let guiding = stats.guiding.map_or(String::new(), |g| {
         format!(
-            ", guiding trained in {:.2} s ({} samples; {} leaves, {} nodes, {})",
+            ", guiding trained in {:.2} s ({} samples, {} of them in the image; {} leaves, {} nodes, {})",
             g.seconds,
             g.training_samples,
+            g.film_samples,
             g.leaves,
             g.nodes,
             ember::limits::human_bytes(g.memory_bytes as u64)

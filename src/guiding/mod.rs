@@ -70,7 +70,10 @@ impl Default for Guiding {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GuidingStats {
     pub seconds: f64,
+    /// Samples training took over the whole image.
     pub training_samples: u64,
+    /// Of them, those the render's film took (see `render::training`).
+    pub film_samples: u64,
     pub leaves: usize,
     pub nodes: usize,
     pub memory_bytes: usize,

@@ -5,7 +5,9 @@
 //! can be stopped (Ctrl-C), snapshotted (checkpoints), resumed, or split by sample
 //! ranges into shards, and the result equals an uninterrupted render (see
 //! [`crate::film`]). Between passes, adaptive sampling ([`adaptive`]) may stop pixels
-//! that have converged; a deadline ends the render wherever it is.
+//! that have converged; a deadline ends the render wherever it is. A guided render
+//! trains its guide first, and the training's samples are the film's first
+//! ([`training`]).
 
 pub mod adaptive;
 mod guide_view;
@@ -17,6 +19,7 @@ pub use guide_view::{guide_view, GuideView};
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
 pub use training::train_guide;
 
+use std::ops::Range;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
@@ -55,11 +58,15 @@ pub struct RenderSettings {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct RenderStats {
     pub seconds: f64,
+    /// Samples the film took in this run, a guide's training samples among them.
     pub samples: u64,
+    /// Rays traced, a guide's training included (its samples the film did not take
+    /// too).
     pub rays: u64,
     /// Samples whose estimate was NaN or infinite, left out of their pixel's mean.
     pub dropped_samples: u64,
-    /// The guide's training (included in `seconds`, not in `samples` or `rays`).
+    /// The guide's training (included in `seconds`, `rays`, and `samples` as far as
+    /// the film took its samples).
     pub guiding: Option<GuidingStats>,
     /// Wall time of building the distribution over emitters, and its BVH nodes (0 for
     /// the alias table).
@@ -68,17 +75,15 @@ pub struct RenderStats {
 }
 
 impl RenderStats {
-    /// Seconds spent rendering the film's samples (without a guide's training).
-    pub fn rendering_seconds(&self) -> f64 {
-        (self.seconds - self.guiding.map_or(0.0, |g| g.seconds)).max(1e-9)
-    }
-
+    /// The film's samples over the whole run's time: a guide's training is part of
+    /// both, since its samples are the film's first (the training samples the film
+    /// did not take, beyond `--spp` or outside a shard, cost time and count nothing).
     pub fn samples_per_second(&self) -> f64 {
-        self.samples as f64 / self.rendering_seconds()
+        self.samples as f64 / self.seconds.max(1e-9)
     }
 
     pub fn mrays_per_second(&self) -> f64 {
-        self.rays as f64 / self.rendering_seconds() / 1e6
+        self.rays as f64 / self.seconds.max(1e-9) / 1e6
     }
 }
 
@@ -223,33 +228,21 @@ pub fn render_progressive<A: Accel>(
         settings.light_sampler,
     );
     let (light_build, light_nodes) = tracer.lights.build_cost();
-    let trained = match settings.guiding {
-        Some(guiding) if settings.integrator == IntegratorKind::Mis => {
-            match train_guide(&tracer, camera, settings, guiding, control.stop) {
-                Some(trained) => Some(trained),
-                None => return (film, RenderStats::default()),
-            }
-        }
+    let guiding = match settings.guiding {
+        Some(guiding) if settings.integrator == IntegratorKind::Mis => Some(guiding),
         _ => None,
     };
-    if let (Some((tree, _)), Some(on_guide)) = (&trained, control.on_guide) {
-        on_guide(tree);
-    }
-    let tracer = tracer.with_guide(trained.as_ref().map(|t| &t.0));
     let before = film.total_done();
     let tiles: Vec<Mutex<FilmTile>> = film.tiles(TILE_SIZE).into_iter().map(Mutex::new).collect();
-    let passes = Passes {
-        tracer: &tracer,
-        camera,
-        settings,
-        first_sample: film.samples.start,
+    let tiled = TiledFilm {
         tiles: &tiles,
+        samples: film.samples.clone(),
         control,
         rays: AtomicU64::new(0),
         dropped: AtomicU64::new(0),
     };
     let finished = (Mutex::new(false), Condvar::new());
-    std::thread::scope(|scope| {
+    let trained = std::thread::scope(|scope| {
         if let Some(checkpointing) = control.checkpoint {
             let (film, tiles, finished) = (&film, &tiles, &finished);
             scope.spawn(move || checkpoint_thread(film, tiles, checkpointing, finished));
@@ -264,16 +257,35 @@ pub fn render_progressive<A: Accel>(
             }
         }
         let _finish = Finish(&finished);
+        // Training's samples are the film's first (see [`training`]); a stop during
+        // training leaves the film with those it took.
+        let trained = match guiding {
+            Some(guiding) => Some(training::train_in_film(
+                &tracer, camera, settings, guiding, &tiled,
+            )?),
+            None => None,
+        };
+        if let (Some((tree, _)), Some(on_guide)) = (&trained, control.on_guide) {
+            on_guide(tree);
+        }
+        let tracer = tracer.with_guide(trained.as_ref().map(|t| &t.0));
+        let passes = Passes {
+            tracer: &tracer,
+            camera,
+            settings,
+            film: &tiled,
+        };
         passes.run(film.samples.len() as u32);
+        trained.map(|t| t.1)
     });
-    let (rays, dropped) = (passes.rays.into_inner(), passes.dropped.into_inner());
+    let (rays, dropped) = (tiled.rays.into_inner(), tiled.dropped.into_inner());
     let film = gather(film, &tiles);
     let stats = RenderStats {
         seconds: start.elapsed().as_secs_f64(),
         samples: film.total_done() - before,
         rays,
         dropped_samples: dropped,
-        guiding: trained.map(|t| t.1),
+        guiding: trained,
         light_build_seconds: light_build.as_secs_f64(),
         light_nodes,
     };
@@ -308,17 +320,41 @@ fn checkpoint_thread(
     }
 }
 
+/// The tiles of a film while workers add samples to them, one worker a tile at a time
+/// (a guide's training, then the passes), and what the samples cost.
+struct TiledFilm<'a> {
+    /// `film.tiles(TILE_SIZE)`: tile `j` has the rectangle `tile_rects(..)[j]`.
+    tiles: &'a [Mutex<FilmTile>],
+    /// The film's sample indices: a pixel's first sample here is `samples.start`.
+    samples: Range<u32>,
+    control: &'a RenderControl<'a>,
+    rays: AtomicU64,
+    dropped: AtomicU64,
+}
+
+impl TiledFilm<'_> {
+    /// Whether a stop was asked for or the deadline has passed.
+    #[inline]
+    fn stopped(&self) -> bool {
+        self.control.stop.load(Ordering::Relaxed) != 0
+            || self.control.deadline.is_some_and(|d| Instant::now() >= d)
+    }
+
+    /// Counts what a worker spent on one tile: rays traced, samples dropped as
+    /// NaN/infinite, and samples the film took.
+    fn count(&self, rays: u64, dropped: u64, taken: u64) {
+        self.rays.fetch_add(rays, Ordering::Relaxed);
+        self.dropped.fetch_add(dropped, Ordering::Relaxed);
+        (self.control.on_samples)(taken);
+    }
+}
+
 /// The passes of a progressive render over the tiles of one film.
 struct Passes<'a, A: Accel> {
     tracer: &'a PathTracer<'a, A>,
     camera: &'a Camera,
     settings: &'a RenderSettings,
-    /// The sample index of a pixel's first sample in this film.
-    first_sample: u32,
-    tiles: &'a [Mutex<FilmTile>],
-    control: &'a RenderControl<'a>,
-    rays: AtomicU64,
-    dropped: AtomicU64,
+    film: &'a TiledFilm<'a>,
 }
 
 impl<A: Accel> Passes<'_, A> {
@@ -332,9 +368,9 @@ impl<A: Accel> Passes<'_, A> {
         loop {
             let report = self.at_pass_end(count);
             if last_pass.is_some() {
-                (self.control.on_pass)(&report);
+                (self.film.control.on_pass)(&report);
             }
-            if self.stopped() {
+            if self.film.stopped() {
                 break;
             }
             let Some(level) = self.fewest_samples_going() else {
@@ -343,32 +379,25 @@ impl<A: Accel> Passes<'_, A> {
             if level >= count {
                 break;
             }
-            let mut target = next_pass_target(level, self.control.first_pass_spp, count);
-            if let (Some(deadline), Some(last)) = (self.control.deadline, last_pass) {
+            let control = self.film.control;
+            let mut target = next_pass_target(level, control.first_pass_spp, count);
+            if let (Some(deadline), Some(last)) = (control.deadline, last_pass) {
                 target = target.min(fit_to_deadline(level, deadline, last));
             }
             let started = Instant::now();
-            self.tiles.par_iter().for_each(|tile| {
+            self.film.tiles.par_iter().for_each(|tile| {
                 let mut tile = tile.lock().unwrap_or_else(|p| p.into_inner());
                 let (r, d, taken) = self.render_tile(&mut tile, target);
-                self.rays.fetch_add(r, Ordering::Relaxed);
-                self.dropped.fetch_add(d, Ordering::Relaxed);
-                (self.control.on_samples)(taken);
+                self.film.count(r, d, taken);
             });
             last_pass = Some((target - level, started.elapsed()));
         }
     }
 
-    /// Whether a stop was asked for or the deadline has passed.
-    #[inline]
-    fn stopped(&self) -> bool {
-        self.control.stop.load(Ordering::Relaxed) != 0
-            || self.control.deadline.is_some_and(|d| Instant::now() >= d)
-    }
-
     /// The fewest samples of any pixel that has not converged (`None`: all have).
     fn fewest_samples_going(&self) -> Option<u32> {
-        self.tiles
+        self.film
+            .tiles
             .iter()
             .filter_map(|tile| {
                 let tile = tile.lock().unwrap_or_else(|p| p.into_inner());
@@ -390,6 +419,7 @@ impl<A: Accel> Passes<'_, A> {
     /// ends that pass.
     fn at_pass_end(&self, count: u32) -> PassReport {
         let mut tiles: Vec<_> = self
+            .film
             .tiles
             .iter()
             .map(|t| t.lock().unwrap_or_else(|p| p.into_inner()))
@@ -515,7 +545,7 @@ impl<A: Accel> Passes<'_, A> {
             let (x, y) = (x0 + i as u32 % w, y0 + i as u32 / w);
             let pixel = u64::from(y) * u64::from(self.settings.width) + u64::from(x);
             while p.done < target {
-                if self.stopped() {
+                if self.film.stopped() {
                     break;
                 }
                 let sample = pixel_sample(
@@ -524,7 +554,7 @@ impl<A: Accel> Passes<'_, A> {
                     self.settings.seed,
                     (x, y),
                     pixel,
-                    self.first_sample + p.done,
+                    self.film.samples.start + p.done,
                     &mut count,
                 );
                 if !p.add(&sample) {

@@ -4,16 +4,29 @@
 //! train the same tree before they render (the cost of resuming a guided render is
 //! training again, a fraction of the render, against storing the tree in every
 //! checkpoint and shard).
+//!
+//! Training's samples are the image's first, as in Müller's "Practical Path Guiding in
+//! Production" (2019): iteration `k` renders samples `2^k − 1 .. 2^(k+1) − 1` of every
+//! pixel, guided by the tree of iteration `k − 1`, so samples `0 .. 2^N − 1` of a
+//! guided render with `N` iterations are training's, and the render's passes take
+//! the rest with the last tree and the render's seed. Each is an unbiased estimate of
+//! the pixel (a guided path's weight divides by the mixture's density, whatever the
+//! tree), so the pixel's mean over all of them is too. A training sample `s` of a
+//! pixel enters the film only as that pixel's next sample there, `samples.start +
+//! done`, within the film's range: a fresh film takes them all in order, a shard
+//! those in its range, and a resumed film skips those it has, so resuming and
+//! merging shards stay exact. Each tile's samples go straight to the film's tile of
+//! the same rectangle (locked once, by the worker rendering it).
 
-use std::sync::atomic::AtomicUsize;
-use std::sync::atomic::Ordering;
+use std::ops::Range;
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::{camera_ray, RenderSettings, TILE_SIZE};
+use super::{camera_ray, RenderSettings, TiledFilm, TILE_SIZE};
 use crate::accel::Accel;
-use crate::film::tile_rects;
+use crate::film::{tile_rects, PixelSums, Sample};
 use crate::guiding::{Guiding, GuidingStats, PathRecords, Record, SdTree, MAX_ITERATIONS};
 use crate::integrator::{PathTracer, RayCount};
 use crate::scene::Camera;
@@ -42,7 +55,7 @@ fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
 
 /// Trains the guide of a render with `settings` (iterations `0..guiding.iterations`,
 /// at most [`MAX_ITERATIONS`], iteration `k` at `2^k` samples per pixel, each guided
-/// by the tree before it).
+/// by the tree before it), keeping only the tree.
 /// `None` when `stop` was set meanwhile.
 pub fn train_guide<A: Accel>(
     tracer: &PathTracer<'_, A>,
@@ -51,12 +64,50 @@ pub fn train_guide<A: Accel>(
     guiding: Guiding,
     stop: &AtomicUsize,
 ) -> Option<(SdTree, GuidingStats)> {
+    train(tracer, camera, settings, guiding, None, &|| {
+        stop.load(Ordering::Relaxed) != 0
+    })
+}
+
+/// Trains the guide as [`train_guide`] does, adding each training sample to `film`
+/// where it is the next sample of its pixel there (see the module docs). `None` when
+/// the render was stopped meanwhile (or its deadline passed); the film keeps the
+/// samples it took.
+pub(super) fn train_in_film<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    guiding: Guiding,
+    film: &TiledFilm<'_>,
+) -> Option<(SdTree, GuidingStats)> {
+    train(tracer, camera, settings, guiding, Some(film), &|| {
+        film.stopped()
+    })
+}
+
+/// The training of [`train_guide`] and [`train_in_film`].
+fn train<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    guiding: Guiding,
+    film: Option<&TiledFilm<'_>>,
+    stopped: &(dyn Fn() -> bool + Sync),
+) -> Option<(SdTree, GuidingStats)> {
     let start = Instant::now();
     let mut tree = SdTree::new(tracer.scene.bounds());
     let rects = tile_rects(settings.width, settings.height, TILE_SIZE);
+    if let Some(film) = film {
+        assert_eq!(
+            film.tiles.len(),
+            rects.len(),
+            "the film's tiles are training's"
+        );
+    }
     let seed = settings.seed ^ TRAINING_SEED;
     let mut first_sample = 0u32;
     let mut samples = 0u64;
+    let in_film = AtomicU64::new(0);
     for k in 0..guiding.iterations.min(MAX_ITERATIONS) {
         let spp = 1u32 << k;
         let guided = PathTracer {
@@ -65,14 +116,37 @@ pub fn train_guide<A: Accel>(
             ..*tracer
         };
         let samples_of_k = first_sample..first_sample + spp;
-        let render = |rect| train_tile(&guided, camera, settings, seed, rect, samples_of_k.clone());
+        let render = |j: usize| {
+            let samples = samples_of_k.clone();
+            let Some(film) = film else {
+                return train_tile(&guided, camera, settings, seed, rects[j], samples, None).0;
+            };
+            let mut tile = film.tiles[j].lock().unwrap_or_else(|p| p.into_inner());
+            debug_assert_eq!(tile.rect, rects[j]);
+            let into = FilmPixels {
+                pixels: &mut tile.pixels,
+                samples: film.samples.clone(),
+            };
+            let (records, cost) = train_tile(
+                &guided,
+                camera,
+                settings,
+                seed,
+                rects[j],
+                samples,
+                Some(into),
+            );
+            in_film.fetch_add(cost.taken, Ordering::Relaxed);
+            film.count(cost.rays, cost.dropped, cost.taken);
+            records
+        };
         let filling = fill(
             tree.cleared(),
-            &rects,
+            rects.len(),
             spp,
             settings.max_depth,
             &render,
-            stop,
+            stopped,
         )?;
         samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
         first_sample += spp;
@@ -81,6 +155,7 @@ pub fn train_guide<A: Accel>(
     let stats = GuidingStats {
         seconds: start.elapsed().as_secs_f64(),
         training_samples: samples,
+        film_samples: in_film.into_inner(),
         leaves: tree.leaf_count(),
         nodes: tree.node_count(),
         memory_bytes: tree.memory_bytes(),
@@ -88,26 +163,28 @@ pub fn train_guide<A: Accel>(
     Some((tree, stats))
 }
 
-/// `filling` with the records of every tile of `rects` (`render` gives a tile's, at
-/// `spp` samples per pixel), rendered batch by batch, each batch's records folded
-/// in tile order while the next batch renders (the fold's order, and so the tree,
-/// does not depend on which worker rendered what). `None` when `stop` was set.
+/// `filling` with the records of tiles `0..tiles` (`render` gives a tile's, at `spp`
+/// samples per pixel), rendered batch by batch, each batch's records folded in tile
+/// order while the next batch renders (the fold's order, and so the tree, does not
+/// depend on which worker rendered what). `None` when `stopped`.
 fn fill(
     mut filling: SdTree,
-    rects: &[(u32, u32, u32, u32)],
+    tiles: usize,
     spp: u32,
     max_depth: u32,
-    render: &(impl Fn((u32, u32, u32, u32)) -> Vec<Record> + Sync),
-    stop: &AtomicUsize,
+    render: &(impl Fn(usize) -> Vec<Record> + Sync),
+    stopped: &(dyn Fn() -> bool + Sync),
 ) -> Option<SdTree> {
     let mut rendered: Option<Vec<Vec<Record>>> = None;
-    for batch in rects.chunks(tiles_per_batch(spp, max_depth)) {
+    let per_batch = tiles_per_batch(spp, max_depth);
+    for first in (0..tiles).step_by(per_batch) {
+        let batch = first..(first + per_batch).min(tiles);
         let folding = rendered.take();
         let (records, ()) = rayon::join(
-            || batch.par_iter().map(|&rect| render(rect)).collect(),
+            || batch.into_par_iter().map(render).collect(),
             || folding.map_or((), |records| filling.deposit_all(&records)),
         );
-        if stop.load(Ordering::Relaxed) != 0 {
+        if stopped() {
             return None;
         }
         rendered = Some(records);
@@ -118,26 +195,64 @@ fn fill(
     Some(filling)
 }
 
-/// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`.
+/// The pixels of a film's tile that training adds its samples to, and the film's
+/// sample indices.
+struct FilmPixels<'t> {
+    pixels: &'t mut [PixelSums],
+    samples: Range<u32>,
+}
+
+impl FilmPixels<'_> {
+    /// Adds `sample`, sample index `s` of the tile's pixel `i`, when it is the next
+    /// sample of that pixel in the film: `samples.start + done`, within the film's
+    /// range, of a pixel adaptive sampling has not stopped. `None`: not taken;
+    /// otherwise whether it was kept (finite).
+    #[inline]
+    fn offer(&mut self, i: usize, s: u32, sample: &Sample) -> Option<bool> {
+        let p = &mut self.pixels[i];
+        let next = self.samples.start + p.done;
+        (s == next && s < self.samples.end && !p.converged).then(|| p.add(sample))
+    }
+}
+
+/// What rendering a training tile cost, and what of it the film took.
+#[derive(Default)]
+struct TileCost {
+    rays: u64,
+    /// Samples the film took, and of them those dropped as NaN/infinite.
+    taken: u64,
+    dropped: u64,
+}
+
+/// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`, each
+/// sample offered to `film` (its pixels, when given).
 fn train_tile<A: Accel>(
     tracer: &PathTracer<'_, A>,
     camera: &Camera,
     settings: &RenderSettings,
     seed: u64,
     (x0, y0, w, h): (u32, u32, u32, u32),
-    samples: std::ops::Range<u32>,
-) -> Vec<Record> {
+    samples: Range<u32>,
+    mut film: Option<FilmPixels<'_>>,
+) -> (Vec<Record>, TileCost) {
     let mut out = Vec::new();
     let mut count = RayCount::default();
+    let mut cost = TileCost::default();
     for y in y0..y0 + h {
         for x in x0..x0 + w {
             let pixel = u64::from(y) * u64::from(settings.width) + u64::from(x);
+            let i = ((y - y0) * w + (x - x0)) as usize;
             for s in samples.clone() {
                 let (ray, mut rng) = camera_ray(camera, seed, (x, y), pixel, s);
                 let mut recorder = PathRecords::new(&mut out);
-                tracer.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
+                let sample = tracer.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
+                if let Some(kept) = film.as_mut().and_then(|f| f.offer(i, s, &sample)) {
+                    cost.taken += 1;
+                    cost.dropped += u64::from(!kept);
+                }
             }
         }
     }
-    out
+    cost.rays = count.rays;
+    (out, cost)
 }
