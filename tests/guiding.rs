@@ -621,12 +621,13 @@ fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
     let whole = run_film(&built, &settings, film(0..40), None);
     assert!(whole.pixels.iter().all(|p| p.done == 40));
     // Stopped in training's second iteration (400 pixels, 400 + 800 samples), and
-    // in the passes.
-    for (stop, taken) in [(700, 1..31), (400 * 35, 31..40)] {
+    // in the passes: at the first tile done of the pass from 32 to 40 spp (tiles of
+    // 16, so 64 to 2048 samples each), whichever worker finishes first.
+    for (stop, taken) in [(700, 1..31), (400 * 32 + 100, 31..40)] {
         let part = run_film(&built, &settings, film(0..40), Some(stop));
         assert!(
             taken.contains(&part.min_done()),
-            "stopped at {}",
+            "stopped after {stop} samples at {}",
             part.min_done()
         );
         let resumed = run_film(&built, &settings, part, None);
@@ -677,7 +678,7 @@ fn guided_adaptive_renders_resume_to_the_uninterrupted_film() {
     let built = box_with_hole();
     let settings = RenderSettings {
         adaptive: Some(Adaptive {
-            threshold: 0.26,
+            threshold: 0.22,
             min_spp: 8,
         }),
         ..guided_settings(20, 64, 4)
