@@ -58,7 +58,11 @@ pub const SPLIT_REFERENCE_PIXELS: u64 = 1280 * 720;
 /// thousand records of the last iteration). The square root trades the two: the room
 /// at 160×90, 5 iterations and 64 spp (relMSE against its 4096-spp reference, seeds 11
 /// and 12) gave 7.75e-2 and 8.02e-2 scaled by the pixels (2048 leaves), 6.62e-2 and
-/// 6.86e-2 by their square root (560 leaves), 8.80e-2 with `c` fixed (66 leaves).
+/// 6.86e-2 by their square root (560 leaves), 8.80e-2 with `c` fixed (66 leaves). The
+/// Cornell boxes at 512² (3 iterations) lose 3–6% (Original) and 10–15% (GlossyMix)
+/// per sample, but their smaller trees cost less: at equal time GlossyMix went from
+/// 0.79× unguided's efficiency with the pixels to 0.80–0.82× with their square root,
+/// the room from 0.79× to 0.94× (`benches/guiding_efficiency.sh`, one sitting).
 pub fn split_threshold(spp: u32, pixels: u64) -> f64 {
     let scale = (pixels.max(1) as f64 / SPLIT_REFERENCE_PIXELS as f64).sqrt();
     SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt() * scale
