@@ -117,27 +117,21 @@ fn train<A: Accel>(
         };
         let samples_of_k = first_sample..first_sample + spp;
         let render = |j: usize| {
+            let mut tile = film.map(|f| f.tiles[j].lock().unwrap_or_else(|p| p.into_inner()));
+            let into = film.zip(tile.as_mut()).map(|(film, tile)| {
+                debug_assert_eq!(tile.rect, rects[j]);
+                FilmPixels {
+                    pixels: &mut tile.pixels,
+                    samples: film.samples.clone(),
+                }
+            });
             let samples = samples_of_k.clone();
-            let Some(film) = film else {
-                return train_tile(&guided, camera, settings, seed, rects[j], samples, None).0;
-            };
-            let mut tile = film.tiles[j].lock().unwrap_or_else(|p| p.into_inner());
-            debug_assert_eq!(tile.rect, rects[j]);
-            let into = FilmPixels {
-                pixels: &mut tile.pixels,
-                samples: film.samples.clone(),
-            };
-            let (records, cost) = train_tile(
-                &guided,
-                camera,
-                settings,
-                seed,
-                rects[j],
-                samples,
-                Some(into),
-            );
-            in_film.fetch_add(cost.taken, Ordering::Relaxed);
-            film.count(cost.rays, cost.dropped, cost.taken);
+            let (records, cost) =
+                train_tile(&guided, camera, settings, seed, rects[j], samples, into);
+            if let Some(film) = film {
+                in_film.fetch_add(cost.taken, Ordering::Relaxed);
+                film.count(cost.rays, cost.dropped, cost.taken);
+            }
             records
         };
         let filling = fill(

@@ -101,6 +101,8 @@ impl Environment {
         let rows = AliasTable::new(&totals);
         let mut texels = Vec::with_capacity(radiance.len());
         for (row, row_radiance) in radiance.chunks_exact(width.max(1) as usize).enumerate() {
+            // The row's weights again, rather than all rows' held since the totals:
+            // one row at a time is all the map's build needs beside the texels.
             let columns = AliasTable::new(&weights(row, row_radiance));
             let row_probability = rows.as_ref().map_or(0.0, |rows| rows.pmf(row));
             texels.extend(
