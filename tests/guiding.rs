@@ -17,8 +17,8 @@ use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, Guiding,
-    MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDE_PROBABILITY, MIN_SELECTION_DRAWS,
-    SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_REFERENCE_PIXELS,
+    MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDED_COST, GUIDE_PROBABILITY,
+    MIN_SELECTION_DRAWS, SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_REFERENCE_PIXELS,
 };
 use ember::image::compare;
 use ember::integrator::{IntegratorKind, PathTracer};
@@ -263,23 +263,35 @@ fn filtered_deposits_keep_their_energy() {
     assert!(refined.pdf(d) > 0.0);
 }
 
-/// The selection probability learnt per region minimises the estimated second moment:
-/// draws whose integrand is the guide's density pick the largest choice, draws whose
-/// integrand is the BSDF's density pick the smallest; too few draws keep ½. Likewise
-/// the share of guided sky samples, learnt from sky draws (whose base is the sky's own
-/// density), between its own choices.
+/// The selection probability learnt per region minimises the estimated second moment
+/// times the cost of guiding: draws whose integrand is the guide's density pick the
+/// largest choice, draws whose integrand is the BSDF's density pick none (the BSDF
+/// alone), and so do draws where guide and BSDF agree (every choice has the same
+/// second moment, and the guide costs more); too few draws keep ½, and a share without
+/// any draw is none. Likewise the share of guided sky samples, learnt from sky draws
+/// (whose base is the sky's own density), between its own choices.
 #[test]
 fn selection_probability_follows_the_second_moment() {
     let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
     let mut rng = Rng::seeded(9);
-    let mut train = |integrand_is_guide: bool, draws: usize, kind: fn(MixtureDraw) -> Draw| {
+    #[derive(Clone, Copy)]
+    enum Integrand {
+        Guide,
+        Bsdf,
+        Agreeing,
+    }
+    let mut train = |integrand: Integrand, draws: usize, kind: fn(MixtureDraw) -> Draw| {
         let mut tree = SdTree::new(bounds).cleared();
         for _ in 0..draws {
             // A base density b and a guide density g that disagree per draw.
             let (u1, u2) = rng.pair();
             let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
+            let (b, g, integrand) = match integrand {
+                Integrand::Guide => (b, g, g),
+                Integrand::Bsdf => (b, g, b),
+                Integrand::Agreeing => (b, b, b * u2),
+            };
             let pdf = 0.5 * b + 0.5 * g;
-            let integrand = if integrand_is_guide { g } else { b };
             tree.deposit(&Record {
                 p: Vec3::ZERO,
                 dir: Vec3::Z,
@@ -293,21 +305,78 @@ fn selection_probability_follows_the_second_moment() {
             });
         }
         let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS);
-        (tree.selection_at(Vec3::ZERO), tree.sky_share_at(Vec3::ZERO))
+        let guided = tree.guided_leaf_count();
+        (
+            tree.selection_at(Vec3::ZERO),
+            tree.sky_share_at(Vec3::ZERO),
+            guided,
+        )
     };
+    use Integrand::*;
     let few = MIN_SELECTION_DRAWS as usize - 1;
     let half = GUIDE_PROBABILITY;
     let last = *SELECTION_CHOICES.last().unwrap();
-    assert_eq!(train(true, 5000, Draw::Scattered), (last, half));
-    assert_eq!(
-        train(false, 5000, Draw::Scattered),
-        (SELECTION_CHOICES[0], half)
-    );
-    assert_eq!(train(true, few, Draw::Scattered), (half, half));
+    assert_eq!(SELECTION_CHOICES[0], 0.0);
+    assert_eq!(train(Guide, 5000, Draw::Scattered), (last, 0.0, 1));
+    assert_eq!(train(Bsdf, 5000, Draw::Scattered), (0.0, 0.0, 0));
+    assert_eq!(train(Agreeing, 5000, Draw::Scattered), (0.0, 0.0, 0));
+    assert_eq!(train(Guide, few, Draw::Scattered), (half, 0.0, 1));
     let last = *SKY_SHARE_CHOICES.last().unwrap();
-    assert_eq!(train(true, 5000, Draw::Sky), (half, last));
-    assert_eq!(train(false, 5000, Draw::Sky), (half, SKY_SHARE_CHOICES[0]));
-    assert_eq!(train(true, few, Draw::Sky), (half, half));
+    assert_eq!(SKY_SHARE_CHOICES[0], 0.0);
+    assert_eq!(train(Guide, 5000, Draw::Sky), (0.0, last, 1));
+    assert_eq!(train(Bsdf, 5000, Draw::Sky), (0.0, 0.0, 0));
+    assert_eq!(train(Agreeing, 5000, Draw::Sky), (0.0, 0.0, 0));
+    assert_eq!(train(Guide, few, Draw::Sky), (0.0, half, 1));
+}
+
+/// Guiding must pay for its cost: draws where the guide lowers the second moment, but
+/// by less than [`GUIDED_COST`], leave the region unguided, and draws where it lowers
+/// it by more guide it (the moments computed here from their definition,
+/// `Σ F² / (p_s · p)`, to check that the draws are such cases).
+#[test]
+fn a_region_guides_only_where_it_pays() {
+    let moments = |draws: &[MixtureDraw], s: f32| -> f64 {
+        let term = |m: &MixtureDraw| {
+            let ps = f64::from((1.0 - s) * m.base_pdf + s * m.guide_pdf);
+            f64::from(m.integrand).powi(2) / (ps * f64::from(m.pdf))
+        };
+        draws.iter().map(term).sum()
+    };
+    let mut rng = Rng::seeded(4);
+    for (guide_weight, guides) in [(0.15f32, false), (0.9, true)] {
+        let draws: Vec<MixtureDraw> = (0..5000)
+            .map(|_| {
+                let (u1, u2) = rng.pair();
+                let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
+                MixtureDraw {
+                    integrand: (1.0 - guide_weight) * b + guide_weight * g,
+                    base_pdf: b,
+                    guide_pdf: g,
+                    pdf: 0.5 * b + 0.5 * g,
+                }
+            })
+            .collect();
+        let unguided = moments(&draws, 0.0);
+        let best = SELECTION_CHOICES[1..]
+            .iter()
+            .map(|&s| moments(&draws, s))
+            .fold(f64::INFINITY, f64::min);
+        assert!(best < unguided, "the guide lowers the second moment");
+        assert_eq!(unguided > GUIDED_COST * best, guides, "{unguided} {best}");
+        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0))).cleared();
+        for &m in &draws {
+            let draw = Some(Draw::Scattered(m));
+            tree.deposit(&Record {
+                p: Vec3::ZERO,
+                dir: Vec3::Z,
+                value: 1.0,
+                draw,
+            });
+        }
+        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS);
+        assert_eq!(tree.selection_at(Vec3::ZERO) > 0.0, guides);
+        assert_eq!(tree.guided_leaf_count(), usize::from(guides));
+    }
 }
 
 /// A sky with a gradient and a bright patch (the sky's own sampling prefers it).

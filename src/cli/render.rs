@@ -945,11 +945,12 @@ fn report_finished(
     };
     let guiding = stats.guiding.map_or(String::new(), |g| {
         format!(
-            ", guiding trained in {:.2} s ({} samples, {} of them in the image; {} leaves, {} nodes, {})",
+            ", guiding trained in {:.2} s ({} samples, {} of them in the image; {} regions, {} of them guided, {} nodes, {})",
             g.seconds,
             g.training_samples,
             g.film_samples,
             g.leaves,
+            g.guided_leaves,
             g.nodes,
             ember::limits::human_bytes(g.memory_bytes as u64)
         )

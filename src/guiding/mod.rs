@@ -38,15 +38,17 @@ pub use quadtree::{
 };
 pub use record::{Draw, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record};
 pub use sdtree::{
-    split_threshold, SdTree, MAX_SPATIAL_NODES, MIN_LIT_DRAWS, MIN_SELECTION_DRAWS,
+    split_threshold, SdTree, GUIDED_COST, MAX_SPATIAL_NODES, MIN_LIT_DRAWS, MIN_SELECTION_DRAWS,
     SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_RECORDS_PER_SQRT_SPP, SPLIT_REFERENCE_PIXELS,
 };
 pub use vertex::VertexGuide;
 
 /// Probability of drawing a direction from the guide rather than the BSDF where a
-/// region has not learnt its own (the untrained tree, regions with few guided draws):
-/// ½ as in Müller et al. 2017, so that the path weight `f·cos / (½ p_bsdf + ½ p_guide)`
-/// is at most twice the BSDF's own.
+/// region has too few draws to learn its own: ½ as in Müller et al. 2017, so that the
+/// path weight `f·cos / (½ p_bsdf + ½ p_guide)` is at most twice the BSDF's own. The
+/// untrained tree draws nothing from its guide (uniform, it is worse than the BSDF's
+/// own sampling): the first iteration renders as unguided `mis` does, while its
+/// draws still measure what a guide would have done.
 pub const GUIDE_PROBABILITY: f32 = 0.5;
 
 /// How a render is guided: the number of training iterations (iteration `k` takes
@@ -75,6 +77,8 @@ pub struct GuidingStats {
     /// Of them, those the render's film took (see `render::training`).
     pub film_samples: u64,
     pub leaves: usize,
+    /// Of them, the regions that guide (see [`VertexGuide::guides`]).
+    pub guided_leaves: usize,
     pub nodes: usize,
     pub memory_bytes: usize,
 }

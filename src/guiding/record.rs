@@ -60,6 +60,10 @@ pub type MixtureTerms = (Vec3, f32, f32);
 
 /// What the path tracer tells a recorder as a path unfolds.
 pub trait PathRecorder {
+    /// Whether records are kept (training): a guided vertex then draws and measures
+    /// with its guide even where its region learnt not to use it, since the draws are
+    /// what the region's shares are learnt from (see `VertexGuide::guides`).
+    const RECORDS: bool;
     /// The path left the non-delta vertex `p` along `dir`, drawn with density `pdf`,
     /// and its throughput is now `throughput`: what it adds from now on, divided by
     /// that throughput, is the radiance that arrived along `dir`. At a guided vertex,
@@ -92,6 +96,7 @@ pub trait PathRecorder {
 pub struct NoRecords;
 
 impl PathRecorder for NoRecords {
+    const RECORDS: bool = false;
     #[inline(always)]
     fn scattered(
         &mut self,
@@ -143,6 +148,7 @@ fn mean(v: Vec3) -> f32 {
 }
 
 impl PathRecorder for PathRecords<'_> {
+    const RECORDS: bool = true;
     fn scattered(
         &mut self,
         p: Vec3,

@@ -9,10 +9,20 @@ use super::record::{Draw, MixtureDraw, Record};
 use super::vertex::VertexGuide;
 use super::GUIDE_PROBABILITY;
 
-/// The selection probabilities a leaf chooses from (see [`SdTree::refined`]): never
-/// below 0.1 nor above 0.8, so that the path weight stays within 1.25× (all BSDF
-/// draws lost) and 10× (all guide draws lost) of the better of the two.
-pub const SELECTION_CHOICES: [f32; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+/// The selection probabilities a leaf chooses from (see [`SdTree::refined`]): none
+/// (the BSDF alone, where guiding does not pay for its cost, [`GUIDED_COST`]), or
+/// from 0.1 to 0.8, so that the path weight stays within 1.25× (all BSDF draws lost)
+/// and 10× (all guide draws lost) of the better of the two.
+pub const SELECTION_CHOICES: [f32; 9] = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+
+/// What a guided choice costs against the base strategy alone, as a factor on its
+/// estimated second moment when a leaf chooses a share ([`SdTree::refined`]): a
+/// share above 0 must lower the second moment by more than this to be chosen over 0.
+/// Efficiency is one over variance times time, and a guided vertex costs more than an
+/// unguided one (the guide's lookups: a path of the room costs 1.7× with every vertex
+/// guided, one of the Cornell box 2.4×, `perf`); a region where both shares are 0 is
+/// rendered unguided ([`VertexGuide::guides`]), at the cost of unguided `mis`.
+pub const GUIDED_COST: f64 = 1.5;
 
 /// The shares of guided sky samples a leaf chooses from (see [`SdTree::refined`]):
 /// from none (where the guide does not know where the sky is seen better than the
@@ -120,8 +130,9 @@ struct Leaf {
 }
 
 impl Leaf {
+    /// The untrained region: uniform, and not drawn from (see [`GUIDE_PROBABILITY`]).
     fn uniform() -> Leaf {
-        Leaf::fresh(QuadTree::uniform(), GUIDE_PROBABILITY, GUIDE_PROBABILITY)
+        Leaf::fresh(QuadTree::uniform(), 0.0, 0.0)
     }
 
     /// A leaf with `directions`, these shares and no records.
@@ -184,15 +195,24 @@ impl<const N: usize> LearntShare<N> {
         self.lit += u64::from(f > 0.0);
     }
 
-    /// The choice of the smallest estimated second moment (the fixed default with
-    /// too few draws, or too few that found light).
+    /// The choice of the smallest estimated second moment times its cost (1 for the
+    /// base strategy alone, [`GUIDED_COST`] with the guide; the fixed default with too
+    /// few draws, or too few that found light; none without any draw, as for the sky
+    /// share of a scene without a sky, so that such a region can be unguided).
     fn chosen(&self, choices: &[f32; N]) -> f32 {
+        if self.draws == 0 {
+            return 0.0;
+        }
         let few = self.draws < MIN_SELECTION_DRAWS || self.lit < MIN_LIT_DRAWS;
         if few || self.moments.iter().all(|m| !m.is_finite()) {
             return GUIDE_PROBABILITY;
         }
+        let cost = |i: usize| {
+            let factor = if choices[i] > 0.0 { GUIDED_COST } else { 1.0 };
+            self.moments[i] * factor
+        };
         let best = (0..N)
-            .min_by(|&a, &b| self.moments[a].total_cmp(&self.moments[b]))
+            .min_by(|&a, &b| cost(a).total_cmp(&cost(b)))
             .unwrap_or(0);
         choices[best]
     }
@@ -221,6 +241,10 @@ pub struct SdTree {
     leaves: Vec<Leaf>,
     /// The grid of [`TABLE_LEVELS`], x fastest, then y, then z: a function of `nodes`.
     table: Vec<TableCell>,
+    /// Each leaf's selection probability and sky share in use, 8 bytes apart where a
+    /// [`Leaf`] spans four cache lines: every vertex reads them, to know whether its
+    /// region guides at all. A function of `leaves`.
+    shares: Vec<[f32; 2]>,
 }
 
 impl SdTree {
@@ -230,12 +254,23 @@ impl SdTree {
         let pad = (max - min).max_element().max(1e-3) * 1e-3;
         let (min, max) = (min - Vec3::splat(pad), max + Vec3::splat(pad));
         let nodes = vec![SpatialNode::leaf(0, 0)];
+        let extent = (max - min).max(Vec3::splat(1e-6));
+        SdTree::assembled(min, extent, nodes, vec![Leaf::uniform()])
+    }
+
+    /// The tree of these regions, with its table and shares.
+    fn assembled(min: Vec3, extent: Vec3, nodes: Vec<SpatialNode>, leaves: Vec<Leaf>) -> SdTree {
+        let shares = leaves
+            .iter()
+            .map(|l| [l.selection.share, l.sky_share.share])
+            .collect();
         SdTree {
             min,
-            extent: (max - min).max(Vec3::splat(1e-6)),
+            extent,
             table: table_of(&nodes),
             nodes,
-            leaves: vec![Leaf::uniform()],
+            leaves,
+            shares,
         }
     }
 
@@ -297,23 +332,19 @@ impl SdTree {
     /// selection probability (see [`VertexGuide`]).
     #[inline]
     pub fn guide_at(&self, p: Vec3, normal: Vec3) -> VertexGuide<'_> {
-        let leaf = &self.leaves[self.leaf_of(p)];
-        VertexGuide::new(
-            &leaf.directions,
-            normal,
-            leaf.selection.share,
-            leaf.sky_share.share,
-        )
+        let leaf = self.leaf_of(p);
+        let [selection, sky_share] = self.shares[leaf];
+        VertexGuide::new(&self.leaves[leaf].directions, normal, selection, sky_share)
     }
 
     /// The selection probability of the region of `p`.
     pub fn selection_at(&self, p: Vec3) -> f32 {
-        self.leaves[self.leaf_of(p)].selection.share
+        self.shares[self.leaf_of(p)][0]
     }
 
     /// The share of guided sky samples of the region of `p`.
     pub fn sky_share_at(&self, p: Vec3) -> f32 {
-        self.leaves[self.leaf_of(p)].sky_share.share
+        self.shares[self.leaf_of(p)][1]
     }
 
     /// Adds a record: `value` (incident radiance over the density of its direction)
@@ -387,6 +418,14 @@ impl SdTree {
         self.leaves.len()
     }
 
+    /// The regions that draw from their guide (the others are rendered unguided).
+    pub fn guided_leaf_count(&self) -> usize {
+        self.shares
+            .iter()
+            .filter(|s| s.iter().any(|&s| s > 0.0))
+            .count()
+    }
+
     /// Nodes of the spatial tree and of all its quadtrees.
     pub fn node_count(&self) -> usize {
         self.nodes.len()
@@ -401,6 +440,7 @@ impl SdTree {
     pub fn memory_bytes(&self) -> usize {
         self.nodes.capacity() * std::mem::size_of::<SpatialNode>()
             + self.table.capacity() * std::mem::size_of::<TableCell>()
+            + self.shares.capacity() * std::mem::size_of::<[f32; 2]>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
             + self
                 .leaves
@@ -424,6 +464,7 @@ impl SdTree {
                     Leaf::fresh(leaf.directions.cleared(), selection, sky)
                 })
                 .collect(),
+            shares: self.shares.clone(),
         }
     }
 
@@ -480,13 +521,7 @@ impl SdTree {
                 Leaf::fresh(old.directions.refined(), selection, sky_share)
             })
             .collect();
-        SdTree {
-            min: self.min,
-            extent: self.extent,
-            table: table_of(&nodes),
-            nodes,
-            leaves,
-        }
+        SdTree::assembled(self.min, self.extent, nodes, leaves)
     }
 }
 

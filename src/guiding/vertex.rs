@@ -57,6 +57,16 @@ impl<'a> VertexGuide<'a> {
         self.sky_share
     }
 
+    /// Whether the guide takes part at all: a region that learnt to draw neither
+    /// scattered directions nor sky samples from it (both shares 0, where guiding did
+    /// not pay for its cost) is rendered as unguided `mis` is, which is the same
+    /// estimator (the mixtures' densities are then the BSDF's and the sky's own)
+    /// without the guide's lookups.
+    #[inline]
+    pub fn guides(&self) -> bool {
+        self.selection > 0.0 || self.sky_share > 0.0
+    }
+
     #[inline]
     fn mirror(&self, d: Vec3) -> Vec3 {
         d - 2.0 * d.dot(self.normal) * self.normal

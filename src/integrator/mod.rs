@@ -319,7 +319,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
             let guide = match self.guide {
                 Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
-                    Some(tree.guide_at(surface.p, reflecting_normal(&surface, wo)))
+                    let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
+                    // Training measures every region's draws, used or not.
+                    (R::RECORDS || guide.guides()).then_some(guide)
                 }
                 _ => None,
             };

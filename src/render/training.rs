@@ -151,6 +151,7 @@ fn train<A: Accel>(
         training_samples: samples,
         film_samples: in_film.into_inner(),
         leaves: tree.leaf_count(),
+        guided_leaves: tree.guided_leaf_count(),
         nodes: tree.node_count(),
         memory_bytes: tree.memory_bytes(),
     };
