@@ -108,7 +108,8 @@ impl<'a> VertexGuide<'a> {
         if d.dot(self.normal) <= 0.0 {
             return 0.0;
         }
-        self.tree.pdf(d) + self.tree.pdf(self.mirror(d))
+        let (direct, mirrored) = self.tree.pdf_pair(d, self.mirror(d));
+        direct + mirrored
     }
 
     /// The density of the one-sample mixture of the BSDF (density `bsdf_pdf` at `d`)
