@@ -512,8 +512,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
-                let guide_pdf = sky_guide_pdf.unwrap_or_else(|| guide.pdf(light.dir));
-                power_heuristic(light.pdf, guide.mixture_of(bsdf_pdf, guide_pdf))
+                // A region that draws nothing from its guide mixes nothing of it in.
+                let mixture = match sky_guide_pdf {
+                    _ if guide.selection() == 0.0 => bsdf_pdf,
+                    Some(guide_pdf) => guide.mixture_of(bsdf_pdf, guide_pdf),
+                    None => guide.mixture_pdf(bsdf_pdf, light.dir),
+                };
+                power_heuristic(light.pdf, mixture)
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
