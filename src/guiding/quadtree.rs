@@ -300,18 +300,27 @@ impl QuadTree {
     /// deposits since then count from the next refinement on).
     #[inline]
     pub fn square_pdf(&self, mut p: Vec2) -> f32 {
-        let mut density = 1.0f32;
-        let mut node = 0usize;
-        loop {
-            let n = &self.nodes[node];
-            let (q, local) = quadrant(p);
-            density *= n.factor[q];
-            match n.child[q] {
-                0 => return density,
-                _ if density == 0.0 => return 0.0,
-                c => (node, p) = (c as usize, local),
-            }
+        let (mut node, mut density) = (Some(0usize), 1.0f32);
+        while let Some(at) = node {
+            (node, p, density) = self.density_step(at, p, density);
         }
+        density
+    }
+
+    /// One level of a density's descent: from node `at`, where the point is `p` in
+    /// its square and the density so far `density`, the child to go on to (none at a
+    /// leaf, or once the density is 0), the point in its square, and the density.
+    #[inline(always)]
+    fn density_step(&self, at: usize, p: Vec2, density: f32) -> (Option<usize>, Vec2, f32) {
+        let n = &self.nodes[at];
+        let (q, local) = quadrant(p);
+        let density = density * n.factor[q];
+        let next = match n.child[q] {
+            0 => None,
+            _ if density == 0.0 => None,
+            c => Some(c as usize),
+        };
+        (next, local, density)
     }
 
     /// [`square_pdf`](Self::square_pdf) at two points, bit for bit, in one loop: the
@@ -320,21 +329,14 @@ impl QuadTree {
     /// and at its mirror image).
     #[inline]
     pub fn square_pdf_pair(&self, a: Vec2, b: Vec2) -> (f32, f32) {
-        // Per point: where it is in its node's square, its node (`None` once its
-        // leaf is reached), and the density so far.
-        let mut points = [(a, Some(0usize), 1.0f32), (b, Some(0usize), 1.0f32)];
-        while points.iter().any(|(_, node, _)| node.is_some()) {
-            for (p, node, density) in &mut points {
-                let Some(at) = *node else { continue };
-                let n = &self.nodes[at];
-                let (q, local) = quadrant(*p);
-                *density *= n.factor[q];
-                *node = match n.child[q] {
-                    0 => None,
-                    _ if *density == 0.0 => None,
-                    c => Some(c as usize),
-                };
-                *p = local;
+        // Per point: its node (`None` once its descent ended), where it is in that
+        // node's square, and the density so far.
+        let mut points = [(Some(0usize), a, 1.0f32), (Some(0usize), b, 1.0f32)];
+        while points.iter().any(|(node, ..)| node.is_some()) {
+            for point in &mut points {
+                if let (Some(at), p, density) = *point {
+                    *point = self.density_step(at, p, density);
+                }
             }
         }
         (points[0].2, points[1].2)

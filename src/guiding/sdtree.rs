@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
 use super::record::{Draw, MixtureDraw, Record};
-use super::vertex::VertexGuide;
+use super::vertex::{draws_from_guide, VertexGuide};
 use super::GUIDE_PROBABILITY;
 
 /// The selection probabilities a leaf chooses from (see [`SdTree::refined`]): none
@@ -121,34 +121,37 @@ impl SpatialNode {
 }
 
 /// One region of space: its directional distribution, how many records fell in it
-/// during the iteration that filled it, its probability of drawing from the guide,
-/// and the sums that choose the next one.
+/// during the iteration that filled it, and the sums that choose its shares of the
+/// next one (the shares in use are [`SdTree`]'s).
 #[derive(Clone, Debug, PartialEq)]
 struct Leaf {
     directions: QuadTree,
     records: u64,
-    /// The probability of drawing a scattered direction from the guide rather than
-    /// the BSDF, of [`SELECTION_CHOICES`].
+    /// What chooses the probability of drawing a scattered direction from the guide
+    /// rather than the BSDF, of [`SELECTION_CHOICES`].
     selection: LearntShare<{ SELECTION_CHOICES.len() }>,
-    /// The share of sky samples drawn from the guide rather than the sky's own
-    /// distribution, of [`SKY_SHARE_CHOICES`].
+    /// What chooses the share of sky samples drawn from the guide rather than the
+    /// sky's own distribution, of [`SKY_SHARE_CHOICES`].
     sky_share: LearntShare<{ SKY_SHARE_CHOICES.len() }>,
 }
 
 impl Leaf {
-    /// The untrained region: uniform, and not drawn from (see [`GUIDE_PROBABILITY`]).
-    fn uniform() -> Leaf {
-        Leaf::fresh(QuadTree::uniform(), 0.0, 0.0)
-    }
-
-    /// A leaf with `directions`, these shares and no records.
-    fn fresh(directions: QuadTree, selection: f32, sky_share: f32) -> Leaf {
+    /// A leaf with `directions` and no records.
+    fn fresh(directions: QuadTree) -> Leaf {
         Leaf {
             directions,
             records: 0,
-            selection: LearntShare::new(selection),
-            sky_share: LearntShare::new(sky_share),
+            selection: LearntShare::new(),
+            sky_share: LearntShare::new(),
         }
+    }
+
+    /// The shares its records choose for the next iteration: selection, sky share.
+    fn chosen_shares(&self) -> [f32; 2] {
+        [
+            self.selection.chosen(&SELECTION_CHOICES),
+            self.sky_share.chosen(&SKY_SHARE_CHOICES),
+        ]
     }
 
     /// Counts a record whose point lies in this leaf.
@@ -162,11 +165,10 @@ impl Leaf {
     }
 }
 
-/// The share of the guide in a mixture with a base strategy, in use during an
-/// iteration, and the sums over its draws that choose the next one.
+/// The sums over an iteration's draws from a mixture of a base strategy and the
+/// guide that choose the guide's share in the next one.
 #[derive(Clone, Debug, PartialEq)]
 struct LearntShare<const N: usize> {
-    share: f32,
     /// For each choice `s`, the sum over draws of `F² / (p_s · p)`: `F` the
     /// integrand's estimate, `p_s` the mixture's density with that choice, `p` the
     /// density the draw had.
@@ -177,9 +179,8 @@ struct LearntShare<const N: usize> {
 }
 
 impl<const N: usize> LearntShare<N> {
-    fn new(share: f32) -> Self {
+    fn new() -> Self {
         LearntShare {
-            share,
             moments: [0.0; N],
             draws: 0,
             lit: 0,
@@ -249,7 +250,7 @@ pub struct SdTree {
     table: Vec<TableCell>,
     /// Each leaf's selection probability and sky share in use, 8 bytes apart where a
     /// [`Leaf`] spans four cache lines: every vertex reads them, to know whether its
-    /// region guides at all. A function of `leaves`.
+    /// region guides at all.
     shares: Vec<[f32; 2]>,
 }
 
@@ -260,23 +261,14 @@ impl SdTree {
         let pad = (max - min).max_element().max(1e-3) * 1e-3;
         let (min, max) = (min - Vec3::splat(pad), max + Vec3::splat(pad));
         let nodes = vec![SpatialNode::leaf(0, 0)];
-        let extent = (max - min).max(Vec3::splat(1e-6));
-        SdTree::assembled(min, extent, nodes, vec![Leaf::uniform()])
-    }
-
-    /// The tree of these regions, with its table and shares.
-    fn assembled(min: Vec3, extent: Vec3, nodes: Vec<SpatialNode>, leaves: Vec<Leaf>) -> SdTree {
-        let shares = leaves
-            .iter()
-            .map(|l| [l.selection.share, l.sky_share.share])
-            .collect();
         SdTree {
             min,
-            extent,
+            extent: (max - min).max(Vec3::splat(1e-6)),
             table: table_of(&nodes),
             nodes,
-            leaves,
-            shares,
+            leaves: vec![Leaf::fresh(QuadTree::uniform())],
+            // The untrained region is not drawn from (see [`GUIDE_PROBABILITY`]).
+            shares: vec![[0.0, 0.0]],
         }
     }
 
@@ -426,10 +418,8 @@ impl SdTree {
 
     /// The regions that draw from their guide (the others are rendered unguided).
     pub fn guided_leaf_count(&self) -> usize {
-        self.shares
-            .iter()
-            .filter(|s| s.iter().any(|&s| s > 0.0))
-            .count()
+        let guides = |&&[selection, sky_share]: &&[f32; 2]| draws_from_guide(selection, sky_share);
+        self.shares.iter().filter(guides).count()
     }
 
     /// Nodes of the spatial tree and of all its quadtrees.
@@ -465,10 +455,7 @@ impl SdTree {
             leaves: self
                 .leaves
                 .par_iter()
-                .map(|leaf| {
-                    let (selection, sky) = (leaf.selection.share, leaf.sky_share.share);
-                    Leaf::fresh(leaf.directions.cleared(), selection, sky)
-                })
+                .map(|leaf| Leaf::fresh(leaf.directions.cleared()))
                 .collect(),
             shares: self.shares.clone(),
         }
@@ -518,16 +505,21 @@ impl SdTree {
             }
             node += 1;
         }
-        let leaves = source
+        let (leaves, shares) = source
             .par_iter()
             .map(|&s| {
                 let old = &self.leaves[s];
-                let selection = old.selection.chosen(&SELECTION_CHOICES);
-                let sky_share = old.sky_share.chosen(&SKY_SHARE_CHOICES);
-                Leaf::fresh(old.directions.refined(), selection, sky_share)
+                (Leaf::fresh(old.directions.refined()), old.chosen_shares())
             })
-            .collect();
-        SdTree::assembled(self.min, self.extent, nodes, leaves)
+            .unzip();
+        SdTree {
+            min: self.min,
+            extent: self.extent,
+            table: table_of(&nodes),
+            nodes,
+            leaves,
+            shares,
+        }
     }
 }
 

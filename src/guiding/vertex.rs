@@ -64,7 +64,7 @@ impl<'a> VertexGuide<'a> {
     /// without the guide's lookups.
     #[inline]
     pub fn guides(&self) -> bool {
-        self.selection > 0.0 || self.sky_share > 0.0
+        draws_from_guide(self.selection, self.sky_share)
     }
 
     #[inline]
@@ -113,9 +113,13 @@ impl<'a> VertexGuide<'a> {
     }
 
     /// The density of the one-sample mixture of the BSDF (density `bsdf_pdf` at `d`)
-    /// and this guide.
+    /// and this guide: the BSDF's own where nothing is drawn from the guide, without
+    /// its lookup (what [`mixture_of`](Self::mixture_of) gives then, bit for bit).
     #[inline]
     pub fn mixture_pdf(&self, bsdf_pdf: f32, d: Vec3) -> f32 {
+        if self.selection == 0.0 {
+            return bsdf_pdf;
+        }
         self.mixture_of(bsdf_pdf, self.pdf(d))
     }
 
@@ -124,6 +128,13 @@ impl<'a> VertexGuide<'a> {
     pub fn mixture_of(&self, bsdf_pdf: f32, guide_pdf: f32) -> f32 {
         (1.0 - self.selection) * bsdf_pdf + self.selection * guide_pdf
     }
+}
+
+/// Whether a region with these shares draws anything from its guide (see
+/// [`VertexGuide::guides`]).
+#[inline]
+pub(super) fn draws_from_guide(selection: f32, sky_share: f32) -> bool {
+    selection > 0.0 || sky_share > 0.0
 }
 
 /// Sky samples drawn where the guide learnt that light arrives: where the sky is seen

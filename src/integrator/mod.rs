@@ -512,9 +512,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
-                // A region that draws nothing from its guide mixes nothing of it in.
                 let mixture = match sky_guide_pdf {
-                    _ if guide.selection() == 0.0 => bsdf_pdf,
                     Some(guide_pdf) => guide.mixture_of(bsdf_pdf, guide_pdf),
                     None => guide.mixture_pdf(bsdf_pdf, light.dir),
                 };
