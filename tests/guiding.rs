@@ -16,8 +16,8 @@ use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::AccelKind;
 use ember::film::Film;
 use ember::guiding::{
-    cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, Guiding,
-    MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDED_COST, GUIDE_PROBABILITY,
+    cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, GuidedDraw,
+    Guiding, MixtureDraw, QuadTree, Record, SdTree, VertexGuide, GUIDED_COST, GUIDE_PROBABILITY,
     MIN_SELECTION_DRAWS, SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_REFERENCE_PIXELS,
 };
 use ember::image::compare;
@@ -263,16 +263,85 @@ fn filtered_deposits_keep_their_energy() {
     assert!(refined.pdf(d) > 0.0);
 }
 
+/// A spatial tree of one region over `(-1, 1)³` whose records (at the origin) came
+/// from around the direction `lobe` (the region's guide concentrates there), filled
+/// but not yet refined.
+fn filled_towards(lobe: Vec3) -> SdTree {
+    let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0))).cleared();
+    let mut rng = Rng::seeded(12);
+    for _ in 0..5000 {
+        let (u1, u2) = rng.pair();
+        let dir = uniform_sphere(u1, u2);
+        let value = 10.0 * dir.dot(lobe).max(0.0).powi(20) + 0.01;
+        tree.deposit(&Record {
+            p: Vec3::ZERO,
+            dir,
+            value,
+        });
+    }
+    tree
+}
+
+/// A base density that varies at random between draws: 0.1 to 2.1 times the
+/// uniform density on the hemisphere, 1 in the mean.
+fn random_base(u: f32) -> f32 {
+    (0.1 + 2.0 * u) / (2.2 * PI)
+}
+
+/// Draws at the origin towards directions on the side of `Vec3::Z`, from a mixture
+/// (share ½) of a base density and the uniform guide of an untrained tree;
+/// `terms(u, g)` gives a draw's base density and integrand from a uniform `u` and the
+/// density `g` of the guide the share will be used with.
+fn draws_at_origin(
+    rng: &mut Rng,
+    n: usize,
+    guide: &SdTree,
+    terms: impl Fn(f32, f32) -> (f32, f32),
+) -> Vec<(Vec3, MixtureDraw)> {
+    let normal = Vec3::Z;
+    let uniform = 1.0 / (2.0 * PI);
+    (0..n)
+        .map(|_| {
+            let (u1, u2) = rng.pair();
+            let dir = uniform_sphere(u1, u2);
+            let dir = if dir.z < 0.0 { -dir } else { dir };
+            let g = guide.guide_at(Vec3::ZERO, normal).pdf(dir);
+            let (b, integrand) = terms(rng.f32(), g);
+            let m = MixtureDraw {
+                integrand,
+                base_pdf: b,
+                guide_scale: 1.0,
+                pdf: 0.5 * b + 0.5 * uniform,
+                normal,
+            };
+            (dir, m)
+        })
+        .collect()
+}
+
+/// The draws as [`GuidedDraw`]s of `kind`, at the origin.
+fn guided(draws: &[(Vec3, MixtureDraw)], kind: fn(MixtureDraw) -> Draw) -> Vec<GuidedDraw> {
+    let at = |&(dir, m): &(Vec3, MixtureDraw)| GuidedDraw {
+        p: Vec3::ZERO,
+        dir,
+        draw: kind(m),
+    };
+    draws.iter().map(at).collect()
+}
+
 /// The selection probability learnt per region minimises the estimated second moment
-/// times the cost of guiding: draws whose integrand is the guide's density pick the
-/// largest choice, draws whose integrand is the BSDF's density pick none (the BSDF
-/// alone), and so do draws where guide and BSDF agree (every choice has the same
-/// second moment, and the guide costs more); too few draws keep ½, and a share without
-/// any draw is none. Likewise the share of guided sky samples, learnt from sky draws
-/// (whose base is the sky's own density), between its own choices.
+/// times the cost of guiding, with the guide the region will use: the one refined
+/// from the iteration's records, not the one the draws were made with (here uniform).
+/// Draws whose integrand is the new guide's density pick the largest choice; draws
+/// whose integrand is the base density pick none (the BSDF alone), and so do draws
+/// where the base density is the guide's (every choice has the same second moment,
+/// and the guide costs more); too few draws keep ½, and a share without any draw is
+/// none. Likewise the share of guided sky samples, learnt
+/// from sky draws (whose base is the sky's own density), between its own choices.
 #[test]
 fn selection_probability_follows_the_second_moment() {
-    let bounds = (Vec3::splat(-1.0), Vec3::splat(1.0));
+    let filled = filled_towards(Vec3::new(0.2, 0.1, 1.0).normalize());
+    let guide = filled.refined(1, SPLIT_REFERENCE_PIXELS, &[]);
     let mut rng = Rng::seeded(9);
     #[derive(Clone, Copy)]
     enum Integrand {
@@ -280,36 +349,20 @@ fn selection_probability_follows_the_second_moment() {
         Bsdf,
         Agreeing,
     }
-    let mut train = |integrand: Integrand, draws: usize, kind: fn(MixtureDraw) -> Draw| {
-        let mut tree = SdTree::new(bounds).cleared();
-        for _ in 0..draws {
-            // A base density b and a guide density g that disagree per draw.
-            let (u1, u2) = rng.pair();
-            let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
-            let (b, g, integrand) = match integrand {
-                Integrand::Guide => (b, g, g),
-                Integrand::Bsdf => (b, g, b),
-                Integrand::Agreeing => (b, b, b * u2),
-            };
-            let pdf = 0.5 * b + 0.5 * g;
-            tree.deposit(&Record {
-                p: Vec3::ZERO,
-                dir: Vec3::Z,
-                value: 1.0,
-                draw: Some(kind(MixtureDraw {
-                    integrand,
-                    base_pdf: b,
-                    guide_pdf: g,
-                    pdf,
-                })),
-            });
-        }
-        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS);
-        let guided = tree.guided_leaf_count();
+    let mut train = |integrand: Integrand, n: usize, kind: fn(MixtureDraw) -> Draw| {
+        let f = |u: f32, g: f32| match integrand {
+            Integrand::Guide => (random_base(u), g),
+            Integrand::Bsdf => (random_base(u), random_base(u)),
+            Integrand::Agreeing => (g, g * u),
+        };
+        let draws = draws_at_origin(&mut rng, n, &guide, f);
+        let tree = filled.refined(1, SPLIT_REFERENCE_PIXELS, &guided(&draws, kind));
+        let same_guide = tree.guide_at(Vec3::ZERO, Vec3::Z).pdf(Vec3::Z);
+        assert_eq!(same_guide, guide.guide_at(Vec3::ZERO, Vec3::Z).pdf(Vec3::Z));
         (
             tree.selection_at(Vec3::ZERO),
             tree.sky_share_at(Vec3::ZERO),
-            guided,
+            tree.guided_leaf_count(),
         )
     };
     use Integrand::*;
@@ -327,35 +380,35 @@ fn selection_probability_follows_the_second_moment() {
     assert_eq!(train(Bsdf, 5000, Draw::Sky), (0.0, 0.0, 0));
     assert_eq!(train(Agreeing, 5000, Draw::Sky), (0.0, 0.0, 0));
     assert_eq!(train(Guide, few, Draw::Sky), (0.0, half, 1));
+    // No draws at all: neither share draws from the guide.
+    let tree = filled.refined(1, SPLIT_REFERENCE_PIXELS, &[]);
+    assert_eq!(tree.guided_leaf_count(), 0);
 }
 
 /// Guiding must pay for its cost: draws where the guide lowers the second moment, but
 /// by less than [`GUIDED_COST`], leave the region unguided, and draws where it lowers
 /// it by more guide it (the moments computed here from their definition,
-/// `Σ F² / (p_s · p)`, to check that the draws are such cases).
+/// `Σ F² / (p_s · p)` with the new guide's density, to check that the draws are such
+/// cases).
 #[test]
 fn a_region_guides_only_where_it_pays() {
-    let moments = |draws: &[MixtureDraw], s: f32| -> f64 {
-        let term = |m: &MixtureDraw| {
-            let ps = f64::from((1.0 - s) * m.base_pdf + s * m.guide_pdf);
+    let filled = filled_towards(Vec3::new(-0.3, 0.2, 1.0).normalize());
+    let guide = filled.refined(1, SPLIT_REFERENCE_PIXELS, &[]);
+    let moments = |draws: &[(Vec3, MixtureDraw)], s: f32| -> f64 {
+        let term = |(dir, m): &(Vec3, MixtureDraw)| {
+            let g = guide.guide_at(Vec3::ZERO, m.normal).pdf(*dir);
+            let ps = f64::from((1.0 - s) * m.base_pdf + s * g);
             f64::from(m.integrand).powi(2) / (ps * f64::from(m.pdf))
         };
         draws.iter().map(term).sum()
     };
     let mut rng = Rng::seeded(4);
-    for (guide_weight, guides) in [(0.15f32, false), (0.9, true)] {
-        let draws: Vec<MixtureDraw> = (0..5000)
-            .map(|_| {
-                let (u1, u2) = rng.pair();
-                let (b, g) = (0.1 + 2.0 * u1, 0.1 + 2.0 * u2);
-                MixtureDraw {
-                    integrand: (1.0 - guide_weight) * b + guide_weight * g,
-                    base_pdf: b,
-                    guide_pdf: g,
-                    pdf: 0.5 * b + 0.5 * g,
-                }
-            })
-            .collect();
+    for (guide_weight, guides) in [(0.1f32, false), (0.9, true)] {
+        let f = |u: f32, g: f32| {
+            let b = random_base(u);
+            (b, (1.0 - guide_weight) * b + guide_weight * g)
+        };
+        let draws = draws_at_origin(&mut rng, 5000, &guide, f);
         let unguided = moments(&draws, 0.0);
         let best = SELECTION_CHOICES[1..]
             .iter()
@@ -363,17 +416,7 @@ fn a_region_guides_only_where_it_pays() {
             .fold(f64::INFINITY, f64::min);
         assert!(best < unguided, "the guide lowers the second moment");
         assert_eq!(unguided > GUIDED_COST * best, guides, "{unguided} {best}");
-        let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0))).cleared();
-        for &m in &draws {
-            let draw = Some(Draw::Scattered(m));
-            tree.deposit(&Record {
-                p: Vec3::ZERO,
-                dir: Vec3::Z,
-                value: 1.0,
-                draw,
-            });
-        }
-        let tree = tree.refined(1, SPLIT_REFERENCE_PIXELS);
+        let tree = filled.refined(1, SPLIT_REFERENCE_PIXELS, &guided(&draws, Draw::Scattered));
         assert_eq!(tree.selection_at(Vec3::ZERO) > 0.0, guides);
         assert_eq!(tree.guided_leaf_count(), usize::from(guides));
     }

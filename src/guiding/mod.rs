@@ -36,7 +36,9 @@ pub use quadtree::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, QuadTree,
     SquareCell, MAX_QUAD_DEPTH, SUBDIVISION_SHARE,
 };
-pub use record::{Draw, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record};
+pub use record::{
+    Draw, GuidedDraw, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record,
+};
 pub use sdtree::{
     split_threshold, SdTree, GUIDED_COST, MAX_SPATIAL_NODES, MIN_LIT_DRAWS, MIN_SELECTION_DRAWS,
     SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_RECORDS_PER_SQRT_SPP, SPLIT_REFERENCE_PIXELS,

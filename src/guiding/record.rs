@@ -1,6 +1,8 @@
 //! What a training path leaves behind: for each non-delta vertex, the radiance that
 //! arrived along the direction it scattered into, and for each light sample, the
-//! radiance that arrived along the light's direction.
+//! radiance that arrived along the light's direction (the [`Record`]s the guide's
+//! distributions are learnt from); and, at guided vertices, how each such direction
+//! was drawn (the [`GuidedDraw`]s the guide's shares are learnt from).
 
 use glam::Vec3;
 
@@ -10,17 +12,25 @@ const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
 /// `value` is its estimate (mean over colour channels) over the density with which
-/// `dir` was drawn; `draw` says how a guided vertex drew it, where it did.
+/// `dir` was drawn.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
     pub dir: Vec3,
     pub value: f32,
-    pub draw: Option<Draw>,
 }
 
-/// How a guided vertex drew a record's direction from a mixture with its guide: what
-/// the mixtures' shares are learnt from (see [`SdTree::refined`](super::SdTree::refined)).
+/// How a guided vertex at `p` drew the direction `dir` from a mixture with its guide:
+/// what the mixtures' shares are learnt from, against the guide the next iteration
+/// will use (see [`SdTree::refined`](super::SdTree::refined)).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GuidedDraw {
+    pub p: Vec3,
+    pub dir: Vec3,
+    pub draw: Draw,
+}
+
+/// Which mixture a [`GuidedDraw`] came from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Draw {
     /// The direction the path scattered into, from the BSDF–guide mixture.
@@ -31,32 +41,39 @@ pub enum Draw {
 }
 
 /// A direction drawn from the mixture of a base strategy (the BSDF's sampling, or the
-/// sky's) and the guide, `(1 − s)·base_pdf + s·guide_pdf` for the share `s` in use.
+/// sky's) and the guide, `(1 − s)·base_pdf + s·guide_scale·g(dir)` for the share `s`
+/// in use, `g` the guide's density folded about `normal` (see
+/// [`VertexGuide`](super::VertexGuide)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MixtureDraw {
     /// The integrand's estimate along the direction, `f·cos · L` (mean over channels).
     pub integrand: f32,
     pub base_pdf: f32,
-    pub guide_pdf: f32,
+    /// What the guide's density is scaled by in the mixture: 1 for scattered
+    /// directions, the probability of sampling the sky at all for sky samples.
+    pub guide_scale: f32,
     /// The mixture's density, with which the direction was drawn.
     pub pdf: f32,
+    /// The unit normal the guide's density was folded about.
+    pub normal: Vec3,
 }
 
 impl MixtureDraw {
     /// The draw of a direction whose integrand is `integrand` (per colour channel).
-    pub fn new(integrand: Vec3, base_pdf: f32, guide_pdf: f32, pdf: f32) -> Self {
+    pub fn new(integrand: Vec3, base_pdf: f32, guide_scale: f32, pdf: f32, normal: Vec3) -> Self {
         MixtureDraw {
             integrand: mean(integrand),
             base_pdf,
-            guide_pdf,
+            guide_scale,
             pdf,
+            normal,
         }
     }
 }
 
 /// What a guided vertex tells its recorder about the draw, on request: the BSDF's
-/// value `f·cos` and density and the guide's density along the direction drawn.
-pub type MixtureTerms = (Vec3, f32, f32);
+/// value `f·cos` and density, and the normal its guide's density is folded about.
+pub type MixtureTerms = (Vec3, f32, Vec3);
 
 /// What the path tracer tells a recorder as a path unfolds.
 pub trait PathRecorder {
@@ -126,19 +143,40 @@ struct Open {
     mixture: Option<MixtureTerms>,
 }
 
-/// Records a path's vertices into `out` when it ends.
+/// Records a path's vertices into `records` when it ends, and the draws of its guided
+/// vertices into `draws`, a share `keep` of them (chosen by a hash of the draw, so the
+/// draws kept are a function of the draws and the share; see [`keeps`]).
 pub struct PathRecords<'o> {
     open: [Open; MAX_OPEN],
     len: usize,
-    out: &'o mut Vec<Record>,
+    records: &'o mut Vec<Record>,
+    draws: &'o mut Vec<GuidedDraw>,
+    keep: f32,
+    /// Guided draws made, kept or not.
+    drawn: u64,
 }
 
 impl<'o> PathRecords<'o> {
-    pub fn new(out: &'o mut Vec<Record>) -> Self {
+    pub fn new(records: &'o mut Vec<Record>, draws: &'o mut Vec<GuidedDraw>, keep: f32) -> Self {
         PathRecords {
             open: [Open::default(); MAX_OPEN],
             len: 0,
-            out,
+            records,
+            draws,
+            keep,
+            drawn: 0,
+        }
+    }
+
+    /// The guided draws made so far, kept or not.
+    pub fn drawn(&self) -> u64 {
+        self.drawn
+    }
+
+    fn draw(&mut self, p: Vec3, dir: Vec3, draw: Draw) {
+        self.drawn += 1;
+        if keeps(p, dir, self.keep) {
+            self.draws.push(GuidedDraw { p, dir, draw });
         }
     }
 }
@@ -188,30 +226,59 @@ impl PathRecorder for PathRecords<'_> {
     ) {
         let value = mean(incident_over_pdf);
         if value.is_finite() {
-            self.out.push(Record {
-                p,
-                dir,
-                value,
-                draw: sky().map(Draw::Sky),
-            });
+            self.records.push(Record { p, dir, value });
+            if let Some(m) = sky() {
+                self.draw(p, dir, Draw::Sky(m));
+            }
         }
     }
 
     fn finish(&mut self) {
-        for v in &self.open[..self.len] {
+        for i in 0..self.len {
+            let v = self.open[i];
             let value = mean(v.radiance) / v.pdf;
             if value.is_finite() {
-                let draw = v.mixture.map(|(f, bsdf_pdf, guide_pdf)| {
-                    Draw::Scattered(MixtureDraw::new(f * v.radiance, bsdf_pdf, guide_pdf, v.pdf))
-                });
-                self.out.push(Record {
+                self.records.push(Record {
                     p: v.p,
                     dir: v.dir,
                     value,
-                    draw,
                 });
+                if let Some((f, bsdf_pdf, normal)) = v.mixture {
+                    let m = MixtureDraw::new(f * v.radiance, bsdf_pdf, 1.0, v.pdf, normal);
+                    self.draw(v.p, v.dir, Draw::Scattered(m));
+                }
             }
         }
         self.len = 0;
     }
+}
+
+/// Whether a draw at `p` along `dir` is among a share `keep` of all draws: a hash of
+/// the two below `keep` (every draw where `keep` is 1). The hash is mixed once more
+/// than the spatial filter's jitter of the same point and direction, so which draws
+/// are kept does not depend on where their records were deposited.
+pub fn keeps(p: Vec3, dir: Vec3, keep: f32) -> bool {
+    let unit = (mix(hash(p, dir) ^ 0x6b65_6570) >> 40) as f32 / (1u32 << 24) as f32;
+    keep >= 1.0 || unit < keep
+}
+
+/// 64 well-mixed bits from the bits of a point and a direction (SplitMix64's
+/// finaliser over them).
+pub fn hash(p: Vec3, d: Vec3) -> u64 {
+    let bits = |v: Vec3| {
+        (
+            u64::from(v.x.to_bits()) << 32 | u64::from(v.y.to_bits()),
+            v.z.to_bits(),
+        )
+    };
+    let (a, b) = bits(p);
+    let (c, e) = bits(d);
+    mix(a ^ mix(c ^ mix(u64::from(b) << 32 | u64::from(e))))
+}
+
+/// SplitMix64's finaliser.
+pub fn mix(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }

@@ -5,7 +5,7 @@ use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
-use super::record::{Draw, MixtureDraw, Record};
+use super::record::{hash, mix, Draw, GuidedDraw, MixtureDraw, Record};
 use super::vertex::{draws_from_guide, VertexGuide};
 use super::GUIDE_PROBABILITY;
 
@@ -120,19 +120,12 @@ impl SpatialNode {
     }
 }
 
-/// One region of space: its directional distribution, how many records fell in it
-/// during the iteration that filled it, and the sums that choose its shares of the
-/// next one (the shares in use are [`SdTree`]'s).
+/// One region of space: its directional distribution, and how many records fell in
+/// it during the iteration that filled it (the shares in use are [`SdTree`]'s).
 #[derive(Clone, Debug, PartialEq)]
 struct Leaf {
     directions: QuadTree,
     records: u64,
-    /// What chooses the probability of drawing a scattered direction from the guide
-    /// rather than the BSDF, of [`SELECTION_CHOICES`].
-    selection: LearntShare<{ SELECTION_CHOICES.len() }>,
-    /// What chooses the share of sky samples drawn from the guide rather than the
-    /// sky's own distribution, of [`SKY_SHARE_CHOICES`].
-    sky_share: LearntShare<{ SKY_SHARE_CHOICES.len() }>,
 }
 
 impl Leaf {
@@ -141,27 +134,40 @@ impl Leaf {
         Leaf {
             directions,
             records: 0,
+        }
+    }
+}
+
+/// What chooses a region's shares: the probability of drawing a scattered direction
+/// from the guide rather than the BSDF, of [`SELECTION_CHOICES`], and the share of sky
+/// samples drawn from the guide rather than the sky's own distribution, of
+/// [`SKY_SHARE_CHOICES`].
+struct LearntShares {
+    selection: LearntShare<{ SELECTION_CHOICES.len() }>,
+    sky_share: LearntShare<{ SKY_SHARE_CHOICES.len() }>,
+}
+
+impl LearntShares {
+    /// The shares that `draws`, made in a region whose (folded) guide is `directions`,
+    /// choose: selection, sky share.
+    fn of<'d>(directions: &QuadTree, draws: impl Iterator<Item = &'d GuidedDraw>) -> [f32; 2] {
+        let mut shares = LearntShares {
             selection: LearntShare::new(),
             sky_share: LearntShare::new(),
+        };
+        for d in draws {
+            let (Draw::Scattered(m) | Draw::Sky(m)) = &d.draw;
+            let guide = VertexGuide::new(directions, m.normal, 0.0, 0.0);
+            let guide_pdf = guide.pdf(d.dir);
+            match &d.draw {
+                Draw::Scattered(m) => shares.selection.add(m, guide_pdf, &SELECTION_CHOICES),
+                Draw::Sky(m) => shares.sky_share.add(m, guide_pdf, &SKY_SHARE_CHOICES),
+            }
         }
-    }
-
-    /// The shares its records choose for the next iteration: selection, sky share.
-    fn chosen_shares(&self) -> [f32; 2] {
         [
-            self.selection.chosen(&SELECTION_CHOICES),
-            self.sky_share.chosen(&SKY_SHARE_CHOICES),
+            shares.selection.chosen(&SELECTION_CHOICES),
+            shares.sky_share.chosen(&SKY_SHARE_CHOICES),
         ]
-    }
-
-    /// Counts a record whose point lies in this leaf.
-    fn count(&mut self, record: &Record) {
-        self.records += 1;
-        match &record.draw {
-            Some(Draw::Scattered(m)) => self.selection.add(m, &SELECTION_CHOICES),
-            Some(Draw::Sky(m)) => self.sky_share.add(m, &SKY_SHARE_CHOICES),
-            None => {}
-        }
     }
 }
 
@@ -170,8 +176,8 @@ impl Leaf {
 #[derive(Clone, Debug, PartialEq)]
 struct LearntShare<const N: usize> {
     /// For each choice `s`, the sum over draws of `F² / (p_s · p)`: `F` the
-    /// integrand's estimate, `p_s` the mixture's density with that choice, `p` the
-    /// density the draw had.
+    /// integrand's estimate, `p_s` the density of the mixture with that choice and the
+    /// guide it will be used with, `p` the density the draw had.
     moments: [f64; N],
     draws: u64,
     /// Draws whose integrand was positive.
@@ -187,10 +193,12 @@ impl<const N: usize> LearntShare<N> {
         }
     }
 
-    fn add(&mut self, m: &MixtureDraw, choices: &[f32; N]) {
+    /// Adds the draw `m`, along which the guide to be used has density `guide_pdf`.
+    fn add(&mut self, m: &MixtureDraw, guide_pdf: f32, choices: &[f32; N]) {
         let f = f64::from(m.integrand);
+        let guide_pdf = m.guide_scale * guide_pdf;
         for (sum, &s) in self.moments.iter_mut().zip(choices) {
-            let ps = f64::from((1.0 - s) * m.base_pdf + s * m.guide_pdf);
+            let ps = f64::from((1.0 - s) * m.base_pdf + s * guide_pdf);
             if ps > 0.0 {
                 *sum += f * f / (ps * f64::from(m.pdf));
             } else if f > 0.0 {
@@ -351,7 +359,7 @@ impl SdTree {
     /// [`route`](Self::route)).
     pub fn deposit(&mut self, record: &Record) {
         let route = self.route(record);
-        self.leaves[route.home as usize].count(record);
+        self.leaves[route.home as usize].records += 1;
         if let Some(target) = route.target {
             let value = f64::from(record.value);
             self.leaves[target as usize]
@@ -361,28 +369,30 @@ impl SdTree {
     }
 
     /// Adds the records of `tiles` as [`deposit`](Self::deposit) would one by one, tile
-    /// after tile, to the bit, but the leaves in parallel: each leaf's sums (its count
-    /// and moments, its quadtree's energies) take their records in that same order,
-    /// whatever the number of threads, so the tree stays a function of the records.
+    /// after tile, to the bit, but the leaves in parallel: each leaf's quadtree takes
+    /// its records in that same order, whatever the number of threads, so the tree
+    /// stays a function of the records. Each leaf's values are first copied into one
+    /// run of memory (its group), so that its quadtree reads them in sequence.
     pub fn deposit_all(&mut self, tiles: &[Vec<Record>]) {
         let routes: Vec<Vec<Route>> = tiles
             .par_iter()
             .map(|tile| tile.iter().map(|r| self.route(r)).collect())
             .collect();
-        let leaves = self.leaves.len();
-        let homes = LeafGroups::new(leaves, tiles, &routes, |r| Some(r.home));
-        let targets = LeafGroups::new(leaves, tiles, &routes, |r| r.target);
+        for route in routes.iter().flatten() {
+            self.leaves[route.home as usize].records += 1;
+        }
+        let deposits = tiles.iter().flatten().zip(routes.iter().flatten());
+        let targets = LeafGroups::new(
+            self.leaves.len(),
+            deposits.filter_map(|(r, route)| Some((route.target?, (r.dir, r.value)))),
+        );
         drop(routes);
         self.leaves
             .par_iter_mut()
             .enumerate()
             .for_each(|(i, leaf)| {
-                for record in homes.of(i) {
-                    leaf.count(record);
-                }
-                for record in targets.of(i) {
-                    let value = f64::from(record.value);
-                    leaf.directions.deposit_filtered(record.dir, value);
+                for &(dir, value) in targets.of(i) {
+                    leaf.directions.deposit_filtered(dir, f64::from(value));
                 }
             });
     }
@@ -470,15 +480,21 @@ impl SdTree {
     /// Deterministic: leaves are visited in index order.
     ///
     /// Each leaf's selection probability becomes the one of [`SELECTION_CHOICES`]
-    /// whose estimated second moment `Σ F² / (p_α · p)` over the leaf's guided draws
-    /// is smallest (an unbiased estimate of `∫ F² / p_α`, the second moment of the
-    /// estimator with that choice): the fixed [`GUIDE_PROBABILITY`] where the guide
-    /// learnt well or badly alike is the weakest part of Müller et al. 2017, and their
-    /// 2019 follow-up learns it per region too (by gradient descent; this is the same
-    /// objective minimised over a grid). Likewise each leaf's share of guided sky
-    /// samples, of [`SKY_SHARE_CHOICES`], over its sky samples' draws. Split leaves
-    /// keep their parent's.
-    pub fn refined(&self, spp: u32, pixels: u64) -> SdTree {
+    /// whose estimated second moment `Σ F² / (p_α · p)` over the guided `draws` of
+    /// the iteration at points in the leaf is smallest (an unbiased estimate of
+    /// `∫ F² / p_α`, the second moment of the estimator with that choice), `p_α` the
+    /// mixture with the leaf's new guide, the one the share will be used with: the
+    /// fixed [`GUIDE_PROBABILITY`] where the guide learnt well or badly alike is the
+    /// weakest part of Müller et al. 2017, and their 2019 follow-up learns it per
+    /// region too (by gradient descent; this is the same objective minimised over a
+    /// grid). Likewise each leaf's share of guided sky samples, of
+    /// [`SKY_SHARE_CHOICES`], over its sky samples' draws.
+    ///
+    /// Why the new guide: the draws were made with the iteration's guide, learnt from
+    /// half as many samples; judged by that one, which concentrates less light, the
+    /// moments were biased against guiding, and `sd-tree 7` left regions unguided
+    /// that its better guide would have paid in (the room: see the README).
+    pub fn refined(&self, spp: u32, pixels: u64, draws: &[GuidedDraw]) -> SdTree {
         let threshold = split_threshold(spp, pixels);
         let mut nodes = self.nodes.clone();
         // For each leaf of the new tree, the leaf of this one it comes from and its
@@ -505,21 +521,40 @@ impl SdTree {
             }
             node += 1;
         }
-        let (leaves, shares) = source
+        let leaves: Vec<Leaf> = source
             .par_iter()
-            .map(|&s| {
-                let old = &self.leaves[s];
-                (Leaf::fresh(old.directions.refined()), old.chosen_shares())
-            })
-            .unzip();
-        SdTree {
+            .map(|&s| Leaf::fresh(self.leaves[s].directions.refined()))
+            .collect();
+        let mut tree = SdTree {
             min: self.min,
             extent: self.extent,
             table: table_of(&nodes),
             nodes,
+            shares: vec![[0.0; 2]; leaves.len()],
             leaves,
-            shares,
-        }
+        };
+        tree.learn_shares(draws);
+        tree
+    }
+
+    /// Each leaf's shares, chosen by the `draws` whose point lies in it, with its own
+    /// guide (see [`refined`](Self::refined)); the leaves in parallel, each summing its
+    /// draws in their order in `draws`, so the shares are a function of the draws.
+    fn learn_shares(&mut self, draws: &[GuidedDraw]) {
+        let homes: Vec<u32> = draws.par_iter().map(|d| self.leaf_of(d.p) as u32).collect();
+        // The draws' indices, 4 bytes each where a draw takes 56.
+        let indices = homes.iter().enumerate().map(|(i, &leaf)| (leaf, i as u32));
+        let groups = LeafGroups::new(self.leaves.len(), indices);
+        drop(homes);
+        self.shares = self
+            .leaves
+            .par_iter()
+            .enumerate()
+            .map(|(i, leaf)| {
+                let own = groups.of(i).iter().map(|&d| &draws[d as usize]);
+                LearntShares::of(&leaf.directions, own)
+            })
+            .collect();
     }
 }
 
@@ -551,63 +586,48 @@ struct Route {
     target: Option<u32>,
 }
 
-/// Records grouped by leaf, in their order within each leaf (a counting sort).
-struct LeafGroups<'r> {
-    /// Leaf `i`'s records are `records[start[i]..start[i + 1]]`.
+/// Items grouped by leaf, in their order within each leaf (a counting sort).
+struct LeafGroups<T> {
+    /// Leaf `i`'s items are `items[start[i]..start[i + 1]]`.
     start: Vec<usize>,
-    records: Vec<Option<&'r Record>>,
+    items: Vec<T>,
 }
 
-impl<'r> LeafGroups<'r> {
-    /// The records of `tiles` (with their `routes`) grouped by the leaf `key` gives.
-    fn new(
-        leaves: usize,
-        tiles: &'r [Vec<Record>],
-        routes: &[Vec<Route>],
-        key: impl Fn(&Route) -> Option<u32>,
-    ) -> Self {
+impl<T: Copy> LeafGroups<T> {
+    /// The `items`, each with the index of its leaf, grouped by leaf.
+    fn new(leaves: usize, items: impl Iterator<Item = (u32, T)> + Clone) -> Self {
         let mut start = vec![0usize; leaves + 1];
-        for leaf in routes.iter().flatten().filter_map(&key) {
+        for (leaf, _) in items.clone() {
             start[leaf as usize + 1] += 1;
         }
         for i in 0..leaves {
             start[i + 1] += start[i];
         }
         let mut next = start.clone();
-        let mut records = vec![None; start[leaves]];
-        let pairs = tiles.iter().flatten().zip(routes.iter().flatten());
-        for (record, leaf) in pairs.filter_map(|(r, route)| Some((r, key(route)?))) {
-            records[next[leaf as usize]] = Some(record);
+        // Every slot is written once below; the first item only fills them till then.
+        let mut grouped = match items.clone().next() {
+            Some((_, first)) => vec![first; start[leaves]],
+            None => Vec::new(),
+        };
+        for (leaf, item) in items {
+            grouped[next[leaf as usize]] = item;
             next[leaf as usize] += 1;
         }
-        LeafGroups { start, records }
+        LeafGroups {
+            start,
+            items: grouped,
+        }
     }
 
-    fn of(&self, leaf: usize) -> impl Iterator<Item = &'r Record> + '_ {
-        self.records[self.start[leaf]..self.start[leaf + 1]]
-            .iter()
-            .flatten()
-            .copied()
+    fn of(&self, leaf: usize) -> &[T] {
+        &self.items[self.start[leaf]..self.start[leaf + 1]]
     }
 }
 
-/// Three uniforms in `[0, 1)` from the bits of a record's point and direction
-/// (SplitMix64's finaliser over them): the spatial filter's jitter.
+/// Three uniforms in `[0, 1)` from the bits of a record's point and direction: the
+/// spatial filter's jitter.
 fn record_jitter(p: Vec3, d: Vec3) -> Vec3 {
-    fn mix(mut z: u64) -> u64 {
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    let bits = |v: Vec3| {
-        (
-            u64::from(v.x.to_bits()) << 32 | u64::from(v.y.to_bits()),
-            v.z.to_bits(),
-        )
-    };
-    let (a, b) = bits(p);
-    let (c, e) = bits(d);
-    let h = mix(a ^ mix(c ^ mix(u64::from(b) << 32 | u64::from(e))));
+    let h = hash(p, d);
     let h2 = mix(h ^ 0x9e37_79b9_7f4a_7c15);
     // 24 bits each, so that every value is exact in f32 and below 1.
     let unit = |v: u64| (v & 0xff_ffff) as f32 / (1u32 << 24) as f32;
@@ -619,9 +639,8 @@ mod tests {
     use super::*;
     use crate::sampling::Rng;
 
-    /// Records at random points and directions, a fifth of them guided draws (of
-    /// scattered directions and of sky samples, alternately) and some with values
-    /// that are not deposited (zero, infinite).
+    /// Records at random points and directions, some with values that are not
+    /// deposited (zero, infinite).
     fn records(rng: &mut Rng, n: usize) -> Vec<Record> {
         (0..n)
             .map(|i| {
@@ -633,27 +652,34 @@ mod tests {
                     1 => f32::INFINITY,
                     _ => rng.f32() * 3.0,
                 };
-                let draw = (i % 5 == 0).then(|| {
-                    let m = MixtureDraw {
-                        integrand: rng.f32(),
-                        base_pdf: rng.f32(),
-                        guide_pdf: rng.f32(),
-                        pdf: 0.1 + rng.f32(),
-                    };
-                    if i % 10 == 0 {
-                        Draw::Sky(m)
-                    } else {
-                        Draw::Scattered(m)
-                    }
-                });
-                Record {
-                    p,
-                    dir,
-                    value,
-                    draw,
-                }
+                Record { p, dir, value }
             })
             .collect()
+    }
+
+    /// Guided draws at the records' points and directions, of scattered directions and
+    /// of sky samples alternately.
+    fn draws(rng: &mut Rng, records: &[Record]) -> Vec<GuidedDraw> {
+        let draw = |(i, r): (usize, &Record)| {
+            let m = MixtureDraw {
+                integrand: rng.f32() * f32::from(u8::from(i % 3 != 0)),
+                base_pdf: rng.f32(),
+                guide_scale: 1.0,
+                pdf: 0.1 + rng.f32(),
+                normal: Vec3::new(rng.f32(), rng.f32(), 1.0).normalize(),
+            };
+            let draw = if i % 2 == 0 {
+                Draw::Sky(m)
+            } else {
+                Draw::Scattered(m)
+            };
+            GuidedDraw {
+                p: r.p,
+                dir: r.dir,
+                draw,
+            }
+        };
+        records.iter().enumerate().map(draw).collect()
     }
 
     /// The leaf and extent a descent from the root finds, one level at a time.
@@ -700,7 +726,7 @@ mod tests {
                     ..*r
                 });
             }
-            tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / (divisor * divisor));
+            tree = tree.refined(1, SPLIT_REFERENCE_PIXELS / (divisor * divisor), &[]);
             check(&tree);
         }
         let finest = points.iter().map(|x| descend(&tree, *x).1.min_element());
@@ -710,7 +736,8 @@ mod tests {
 
     /// Folding tiles of records leaf by leaf in parallel gives the tree depositing them
     /// one by one does, to the bit (every sum taken in the same order), on a tree split
-    /// into many regions.
+    /// into many regions; and so do the shares its draws choose, which are not all
+    /// alike.
     #[test]
     fn parallel_fold_is_the_sequential_fold() {
         let mut rng = Rng::seeded(3);
@@ -719,7 +746,7 @@ mod tests {
             tree.deposit(r);
         }
         // A one-pixel image: regions with more than 12.5 records are split.
-        let tree = tree.refined(1, 1);
+        let tree = tree.refined(1, 1, &[]);
         assert!(tree.leaf_count() > 500, "{} leaves", tree.leaf_count());
         let tiles: Vec<Vec<Record>> = (0..7).map(|t| records(&mut rng, 1000 * t)).collect();
         let mut one_by_one = tree.cleared();
@@ -729,6 +756,13 @@ mod tests {
         let mut folded = tree.cleared();
         folded.deposit_all(&tiles);
         assert!(one_by_one == folded);
-        assert!(one_by_one.refined(4, 1000) == folded.refined(4, 1000));
+        let draws = draws(&mut rng, tiles.concat().as_slice());
+        let refined = folded.refined(4, 1000, &draws);
+        assert!(one_by_one.refined(4, 1000, &draws) == refined);
+        let mut shares: Vec<[u32; 2]> =
+            refined.shares.iter().map(|s| s.map(f32::to_bits)).collect();
+        shares.sort_unstable();
+        shares.dedup();
+        assert!(shares.len() > 2, "{shares:?}");
     }
 }

@@ -51,6 +51,12 @@ impl<'a> VertexGuide<'a> {
         self.selection
     }
 
+    /// The unit normal the guide's density is folded about.
+    #[inline]
+    pub fn normal(&self) -> Vec3 {
+        self.normal
+    }
+
     /// The probability of drawing a sky sample from the guide.
     #[inline]
     pub fn sky_share(&self) -> f32 {

@@ -135,8 +135,9 @@ struct Step {
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
     traced: Option<Option<Hit>>,
-    /// At a guided vertex, the BSDF's value and density and the guide's density along
-    /// `dir`, as the draw found them: what a training record of the draw holds.
+    /// At a guided vertex, the BSDF's value and density along `dir`, as the draw
+    /// found them, and the normal its guide is folded about: what training's record
+    /// of the draw holds.
     mixture: Option<MixtureTerms>,
 }
 
@@ -489,10 +490,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let Some((light, sky_guide_pdf)) = drawn else {
             return Vec3::ZERO;
         };
+        // The normal the guide of a guided sky sample is folded about.
+        let sky_normal = sky_guide_pdf.and(guide).map(|guide| guide.normal());
         // Training learns a region's sky share from every sky sample, lit or not.
         let unlit = |recorder: &mut R| {
-            if let Some(guide_pdf) = sky_guide_pdf {
-                let draw = || Some(self.sky_draw(&light, guide_pdf, Vec3::ZERO));
+            if let Some(normal) = sky_normal {
+                let draw = || Some(self.sky_draw(&light, normal, Vec3::ZERO));
                 recorder.light_sample(surface.p, light.dir, Vec3::ZERO, draw);
             }
             Vec3::ZERO
@@ -524,23 +527,24 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             surface.p,
             light.dir,
             light.emission * (weight / light.pdf),
-            || sky_guide_pdf.map(|g| self.sky_draw(&light, g, f * light.emission)),
+            || sky_normal.map(|n| self.sky_draw(&light, n, f * light.emission)),
         );
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
     }
 
-    /// What a guided vertex's sky sample (whose direction has density `guide_pdf` by
-    /// the guide) tells training (see [`LightSampler::sample_with_sky_guide`]): the
-    /// draw its region's sky share is learnt from, `integrand` being what it found
-    /// (`f·cos · Le`, 0 where unlit).
+    /// What a guided vertex's sky sample (its guide folded about `normal`) tells
+    /// training (see [`LightSampler::sample_with_sky_guide`]): the draw its region's
+    /// sky share is learnt from, `integrand` being what it found (`f·cos · Le`, 0
+    /// where unlit).
     #[inline]
-    fn sky_draw(&self, light: &LightSample, guide_pdf: f32, integrand: Vec3) -> MixtureDraw {
+    fn sky_draw(&self, light: &LightSample, normal: Vec3, integrand: Vec3) -> MixtureDraw {
         MixtureDraw::new(
             integrand,
             self.lights.pdf_sky(light.dir),
-            self.lights.sky_probability() * guide_pdf,
+            self.lights.sky_probability(),
             light.pdf,
+            normal,
         )
     }
 
@@ -580,7 +584,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             },
             eta: 1.0,
             traced: None,
-            mixture: Some((value, bsdf_pdf, guide_pdf)),
+            mixture: Some((value, bsdf_pdf, guide.normal())),
         })
     }
 

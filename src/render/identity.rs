@@ -96,7 +96,7 @@ pub fn identity(
         (
             "guiding",
             format!(
-                "sd-tree 7 (regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image), {} iterations, training seed from the render's",
+                "sd-tree 8 (shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image), {} iterations, training seed from the render's",
                 g.iterations
             ),
         )

@@ -27,7 +27,9 @@ use rayon::prelude::*;
 use super::{camera_ray, RenderSettings, TiledFilm, TILE_SIZE};
 use crate::accel::Accel;
 use crate::film::{tile_rects, PixelSums, Sample};
-use crate::guiding::{Guiding, GuidingStats, PathRecords, Record, SdTree, MAX_ITERATIONS};
+use crate::guiding::{
+    GuidedDraw, Guiding, GuidingStats, PathRecords, Record, SdTree, MAX_ITERATIONS,
+};
 use crate::integrator::{PathTracer, RayCount};
 use crate::scene::Camera;
 
@@ -35,11 +37,22 @@ use crate::scene::Camera;
 const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 
 /// Records of one batch of tiles, as far as there are more tiles than workers: 917k,
-/// about 66 MB (48 bytes each, a guided draw carrying its mixture's densities, and 24
-/// more while they are folded: the leaves each goes to, and its place in each leaf's
-/// group; see [`SdTree::deposit_all`]). Two batches are held at once, one folded
-/// while the next renders: about 132 MB.
+/// about 51 MB (28 bytes each, and 28 more while they are folded: the leaves each
+/// goes to, and its direction and value copied into its leaf's group; see
+/// [`SdTree::deposit_all`]). Two batches are held at once, one folded while the next
+/// renders: about 102 MB.
 const RECORDS_PER_BATCH: usize = 7 << 17;
+
+/// The guided draws an iteration keeps to learn the regions' shares from (see
+/// [`SdTree::refined`]): about 2.1 million, 117 MB (56 bytes each). An iteration
+/// expected to make more keeps a share of them ([`keep_share`]).
+const KEPT_DRAWS: u64 = 1 << 21;
+
+/// The share of its guided draws an iteration keeps, `expected` being how many it is
+/// expected to make: all, or as many as [`KEPT_DRAWS`].
+fn keep_share(expected: u64) -> f32 {
+    (KEPT_DRAWS as f64 / expected.max(1) as f64).min(1.0) as f32
+}
 
 /// Tiles rendered before their records are folded in: as many as fit
 /// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
@@ -105,11 +118,16 @@ fn train<A: Accel>(
         );
     }
     let seed = settings.seed ^ TRAINING_SEED;
+    let pixels = u64::from(settings.width) * u64::from(settings.height);
     let mut first_sample = 0u32;
     let mut samples = 0u64;
     let in_film = AtomicU64::new(0);
+    // The first iteration draws at most twice per vertex; each later one, at twice
+    // the samples, about twice what the one before drew.
+    let mut expected_draws = pixels * 2 * u64::from(settings.max_depth.max(1));
     for k in 0..guiding.iterations.min(MAX_ITERATIONS) {
         let spp = 1u32 << k;
+        let keep = keep_share(expected_draws);
         let guided = PathTracer {
             guide: Some(&tree),
             lights: tracer.lights.clone(),
@@ -126,25 +144,24 @@ fn train<A: Accel>(
                 }
             });
             let samples = samples_of_k.clone();
-            let (records, cost) =
-                train_tile(&guided, camera, settings, seed, rects[j], samples, into);
+            let (records, cost) = train_tile(
+                &guided, camera, settings, seed, rects[j], samples, into, keep,
+            );
             if let Some(film) = film {
                 in_film.fetch_add(cost.taken, Ordering::Relaxed);
                 film.count(cost.rays, cost.dropped, cost.taken);
             }
             records
         };
-        let filling = fill(
-            tree.cleared(),
-            rects.len(),
-            spp,
-            settings.max_depth,
-            &render,
-            stopped,
-        )?;
-        samples += u64::from(spp) * u64::from(settings.width) * u64::from(settings.height);
+        let batches = Batches {
+            tiles: rects.len(),
+            per_batch: tiles_per_batch(spp, settings.max_depth),
+        };
+        let (filling, draws) = fill(tree.cleared(), batches, &render, stopped)?;
+        samples += u64::from(spp) * pixels;
         first_sample += spp;
-        tree = filling.refined(spp, u64::from(settings.width) * u64::from(settings.height));
+        expected_draws = 2 * draws.made;
+        tree = filling.refined(spp, pixels, &draws.kept);
     }
     let stats = GuidingStats {
         seconds: start.elapsed().as_secs_f64(),
@@ -158,36 +175,59 @@ fn train<A: Accel>(
     Some((tree, stats))
 }
 
-/// `filling` with the records of tiles `0..tiles` (`render` gives a tile's, at `spp`
-/// samples per pixel), rendered batch by batch, each batch's records folded in tile
-/// order while the next batch renders (the fold's order, and so the tree, does not
-/// depend on which worker rendered what). `None` when `stopped`.
+/// Tiles `0..tiles`, rendered `per_batch` at a time.
+struct Batches {
+    tiles: usize,
+    per_batch: usize,
+}
+
+/// What rendering a training tile left: its records, and its guided draws.
+struct TileRecords {
+    records: Vec<Record>,
+    draws: GuidedDraws,
+}
+
+/// Guided draws: those kept, in tile order, and how many were made in all.
+#[derive(Default)]
+struct GuidedDraws {
+    kept: Vec<GuidedDraw>,
+    made: u64,
+}
+
+/// `filling` with the records of all tiles (`render` gives a tile's), rendered batch
+/// by batch, each batch's records folded in tile order while the next batch renders
+/// (the fold's order, and so the tree, does not depend on which worker rendered
+/// what), and the tiles' guided draws in tile order. `None` when `stopped`.
 fn fill(
     mut filling: SdTree,
-    tiles: usize,
-    spp: u32,
-    max_depth: u32,
-    render: &(impl Fn(usize) -> Vec<Record> + Sync),
+    batches: Batches,
+    render: &(impl Fn(usize) -> TileRecords + Sync),
     stopped: &(dyn Fn() -> bool + Sync),
-) -> Option<SdTree> {
+) -> Option<(SdTree, GuidedDraws)> {
     let mut rendered: Option<Vec<Vec<Record>>> = None;
-    let per_batch = tiles_per_batch(spp, max_depth);
-    for first in (0..tiles).step_by(per_batch) {
-        let batch = first..(first + per_batch).min(tiles);
+    let mut draws = GuidedDraws::default();
+    for first in (0..batches.tiles).step_by(batches.per_batch) {
+        let batch = first..(first + batches.per_batch).min(batches.tiles);
         let folding = rendered.take();
-        let (records, ()) = rayon::join(
-            || batch.into_par_iter().map(render).collect(),
+        let (tiles, ()) = rayon::join(
+            || batch.into_par_iter().map(render).collect::<Vec<_>>(),
             || folding.map_or((), |records| filling.deposit_all(&records)),
         );
         if stopped() {
             return None;
+        }
+        let mut records = Vec::with_capacity(tiles.len());
+        for tile in tiles {
+            records.push(tile.records);
+            draws.kept.extend(tile.draws.kept);
+            draws.made += tile.draws.made;
         }
         rendered = Some(records);
     }
     if let Some(records) = rendered {
         filling.deposit_all(&records);
     }
-    Some(filling)
+    Some((filling, draws))
 }
 
 /// The pixels of a film's tile that training adds its samples to, and the film's
@@ -219,8 +259,10 @@ struct TileCost {
     dropped: u64,
 }
 
-/// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`, each
-/// sample offered to `film` (its pixels, when given).
+/// The records of samples `samples` of every pixel of the tile `(x0, y0, w, h)`, and
+/// a share `keep` of its guided draws, each sample offered to `film` (its pixels,
+/// when given).
+#[allow(clippy::too_many_arguments)]
 fn train_tile<A: Accel>(
     tracer: &PathTracer<'_, A>,
     camera: &Camera,
@@ -229,8 +271,9 @@ fn train_tile<A: Accel>(
     (x0, y0, w, h): (u32, u32, u32, u32),
     samples: Range<u32>,
     mut film: Option<FilmPixels<'_>>,
-) -> (Vec<Record>, TileCost) {
-    let mut out = Vec::new();
+    keep: f32,
+) -> (TileRecords, TileCost) {
+    let (mut records, mut draws, mut made) = (Vec::new(), Vec::new(), 0);
     let mut count = RayCount::default();
     let mut cost = TileCost::default();
     for y in y0..y0 + h {
@@ -239,8 +282,9 @@ fn train_tile<A: Accel>(
             let i = ((y - y0) * w + (x - x0)) as usize;
             for s in samples.clone() {
                 let (ray, mut rng) = camera_ray(camera, seed, (x, y), pixel, s);
-                let mut recorder = PathRecords::new(&mut out);
+                let mut recorder = PathRecords::new(&mut records, &mut draws, keep);
                 let sample = tracer.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
+                made += recorder.drawn();
                 if let Some(kept) = film.as_mut().and_then(|f| f.offer(i, s, &sample)) {
                     cost.taken += 1;
                     cost.dropped += u64::from(!kept);
@@ -249,5 +293,6 @@ fn train_tile<A: Accel>(
         }
     }
     cost.rays = count.rays;
-    (out, cost)
+    let draws = GuidedDraws { kept: draws, made };
+    (TileRecords { records, draws }, cost)
 }
