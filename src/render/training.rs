@@ -44,9 +44,13 @@ const TRAINING_SEED: u64 = 0x6775_6964_696e_6721;
 const RECORDS_PER_BATCH: usize = 7 << 17;
 
 /// The guided draws an iteration keeps to learn the regions' shares from (see
-/// [`SdTree::refined`]): about 2.1 million, 117 MB (56 bytes each). An iteration
-/// expected to make more keeps a share of them ([`keep_share`]).
-const KEPT_DRAWS: u64 = 1 << 21;
+/// [`SdTree::refined`]): about a million, 59 MB (56 bytes each). An iteration
+/// expected to make more keeps a share of them ([`keep_share`]). Twice as many chose
+/// the same shares within noise (per sample, seeds 11 and 12: room 2.02e-2 and 1.90e-2
+/// against 1.97e-2 and 1.92e-2 with these, Cornell Original 1.07e-3 and 1.08e-3
+/// against 1.09e-3 and 1.09e-3, GlossyMix 6.63e-3 and 6.64e-3 against 6.53e-3 and
+/// 6.75e-3) at 60–85 MB more peak memory.
+const KEPT_DRAWS: u64 = 1 << 20;
 
 /// The share of its guided draws an iteration keeps, `expected` being how many it is
 /// expected to make: all, or as many as [`KEPT_DRAWS`].
