@@ -156,12 +156,10 @@ impl LearntShares {
             sky_share: LearntShare::new(),
         };
         for d in draws {
-            let (Draw::Scattered(m) | Draw::Sky(m)) = &d.draw;
-            let guide = VertexGuide::new(directions, m.normal, 0.0, 0.0);
-            let guide_pdf = guide.pdf(d.dir);
+            let pdf = |m: &MixtureDraw| VertexGuide::new(directions, m.normal, 0.0, 0.0).pdf(d.dir);
             match &d.draw {
-                Draw::Scattered(m) => shares.selection.add(m, guide_pdf, &SELECTION_CHOICES),
-                Draw::Sky(m) => shares.sky_share.add(m, guide_pdf, &SKY_SHARE_CHOICES),
+                Draw::Scattered(m) => shares.selection.add(m, pdf(m), &SELECTION_CHOICES),
+                Draw::Sky(m) => shares.sky_share.add(m, pdf(m), &SKY_SHARE_CHOICES),
             }
         }
         [
@@ -493,7 +491,7 @@ impl SdTree {
     /// Why the new guide: the draws were made with the iteration's guide, learnt from
     /// half as many samples; judged by that one, which concentrates less light, the
     /// moments were biased against guiding, and `sd-tree 7` left regions unguided
-    /// that its better guide would have paid in (the room: see the README).
+    /// that its better guide would have paid in (GlossyMix lost most: see the README).
     pub fn refined(&self, spp: u32, pixels: u64, draws: &[GuidedDraw]) -> SdTree {
         let threshold = split_threshold(spp, pixels);
         let mut nodes = self.nodes.clone();

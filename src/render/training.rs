@@ -148,14 +148,14 @@ fn train<A: Accel>(
                 }
             });
             let samples = samples_of_k.clone();
-            let (records, cost) = train_tile(
+            let (tile, cost) = train_tile(
                 &guided, camera, settings, seed, rects[j], samples, into, keep,
             );
             if let Some(film) = film {
                 in_film.fetch_add(cost.taken, Ordering::Relaxed);
                 film.count(cost.rays, cost.dropped, cost.taken);
             }
-            records
+            tile
         };
         let batches = Batches {
             tiles: rects.len(),
