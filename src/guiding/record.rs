@@ -6,6 +6,8 @@
 
 use glam::Vec3;
 
+use crate::sampling::mix64;
+
 /// The most vertices of one path whose incident radiance is tracked; deeper ones are
 /// not recorded (the guide only needs some of them, and this keeps it allocation-free).
 const MAX_OPEN: usize = 32;
@@ -258,8 +260,7 @@ impl PathRecorder for PathRecords<'_> {
 /// than the spatial filter's jitter of the same point and direction, so which draws
 /// are kept does not depend on where their records were deposited.
 pub fn keeps(p: Vec3, dir: Vec3, keep: f32) -> bool {
-    let unit = (mix(hash(p, dir) ^ 0x6b65_6570) >> 40) as f32 / (1u32 << 24) as f32;
-    keep >= 1.0 || unit < keep
+    keep >= 1.0 || ((mix64(hash(p, dir) ^ 0x6b65_6570) >> 40) as f32) < keep * (1u32 << 24) as f32
 }
 
 /// 64 well-mixed bits from the bits of a point and a direction (SplitMix64's
@@ -273,12 +274,5 @@ pub fn hash(p: Vec3, d: Vec3) -> u64 {
     };
     let (a, b) = bits(p);
     let (c, e) = bits(d);
-    mix(a ^ mix(c ^ mix(u64::from(b) << 32 | u64::from(e))))
-}
-
-/// SplitMix64's finaliser.
-pub fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+    mix64(a ^ mix64(c ^ mix64(u64::from(b) << 32 | u64::from(e))))
 }

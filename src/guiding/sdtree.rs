@@ -5,9 +5,10 @@ use glam::{UVec3, Vec3};
 use rayon::prelude::*;
 
 use super::quadtree::QuadTree;
-use super::record::{hash, mix, Draw, GuidedDraw, MixtureDraw, Record};
+use super::record::{hash, Draw, GuidedDraw, MixtureDraw, Record};
 use super::vertex::{draws_from_guide, VertexGuide};
 use super::GUIDE_PROBABILITY;
+use crate::sampling::mix64;
 
 /// The selection probabilities a leaf chooses from (see [`SdTree::refined`]): none
 /// (the BSDF alone, where guiding does not pay for its cost, [`GUIDED_COST`]), or
@@ -138,35 +139,27 @@ impl Leaf {
     }
 }
 
-/// What chooses a region's shares: the probability of drawing a scattered direction
-/// from the guide rather than the BSDF, of [`SELECTION_CHOICES`], and the share of sky
-/// samples drawn from the guide rather than the sky's own distribution, of
-/// [`SKY_SHARE_CHOICES`].
-struct LearntShares {
-    selection: LearntShare<{ SELECTION_CHOICES.len() }>,
-    sky_share: LearntShare<{ SKY_SHARE_CHOICES.len() }>,
-}
-
-impl LearntShares {
-    /// The shares that `draws`, made in a region whose (folded) guide is `directions`,
-    /// choose: selection, sky share.
-    fn of<'d>(directions: &QuadTree, draws: impl Iterator<Item = &'d GuidedDraw>) -> [f32; 2] {
-        let mut shares = LearntShares {
-            selection: LearntShare::new(),
-            sky_share: LearntShare::new(),
-        };
-        for d in draws {
-            let pdf = |m: &MixtureDraw| VertexGuide::new(directions, m.normal, 0.0, 0.0).pdf(d.dir);
-            match &d.draw {
-                Draw::Scattered(m) => shares.selection.add(m, pdf(m), &SELECTION_CHOICES),
-                Draw::Sky(m) => shares.sky_share.add(m, pdf(m), &SKY_SHARE_CHOICES),
-            }
+/// The shares that `draws`, made in a region whose (folded) guide is `directions`,
+/// choose: the probability of drawing a scattered direction from the guide rather than
+/// the BSDF, of [`SELECTION_CHOICES`], and the share of sky samples drawn from the
+/// guide rather than the sky's own distribution, of [`SKY_SHARE_CHOICES`].
+fn learnt_shares<'d>(
+    directions: &QuadTree,
+    draws: impl Iterator<Item = &'d GuidedDraw>,
+) -> [f32; 2] {
+    let mut selection = LearntShare::<{ SELECTION_CHOICES.len() }>::new();
+    let mut sky_share = LearntShare::<{ SKY_SHARE_CHOICES.len() }>::new();
+    for d in draws {
+        let pdf = |m: &MixtureDraw| VertexGuide::new(directions, m.normal, 0.0, 0.0).pdf(d.dir);
+        match &d.draw {
+            Draw::Scattered(m) => selection.add(m, pdf(m), &SELECTION_CHOICES),
+            Draw::Sky(m) => sky_share.add(m, pdf(m), &SKY_SHARE_CHOICES),
         }
-        [
-            shares.selection.chosen(&SELECTION_CHOICES),
-            shares.sky_share.chosen(&SKY_SHARE_CHOICES),
-        ]
     }
+    [
+        selection.chosen(&SELECTION_CHOICES),
+        sky_share.chosen(&SKY_SHARE_CHOICES),
+    ]
 }
 
 /// The sums over an iteration's draws from a mixture of a base strategy and the
@@ -550,7 +543,7 @@ impl SdTree {
             .enumerate()
             .map(|(i, leaf)| {
                 let own = groups.of(i).iter().map(|&d| &draws[d as usize]);
-                LearntShares::of(&leaf.directions, own)
+                learnt_shares(&leaf.directions, own)
             })
             .collect();
     }
@@ -626,7 +619,7 @@ impl<T: Copy> LeafGroups<T> {
 /// spatial filter's jitter.
 fn record_jitter(p: Vec3, d: Vec3) -> Vec3 {
     let h = hash(p, d);
-    let h2 = mix(h ^ 0x9e37_79b9_7f4a_7c15);
+    let h2 = mix64(h ^ 0x9e37_79b9_7f4a_7c15);
     // 24 bits each, so that every value is exact in f32 and below 1.
     let unit = |v: u64| (v & 0xff_ffff) as f32 / (1u32 << 24) as f32;
     Vec3::new(unit(h >> 40), unit(h >> 16), unit(h2 >> 40))

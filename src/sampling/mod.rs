@@ -7,7 +7,7 @@ mod rng;
 
 pub use distribution::{alias_draw, AliasEntry, AliasTable};
 pub use onb::Onb;
-pub use rng::Rng;
+pub use rng::{mix64, Rng};
 
 use glam::Vec3;
 use std::f32::consts::PI;
