@@ -39,7 +39,8 @@ use crate::bsdf::{Bsdf, BsdfSample};
 use crate::film::Sample;
 use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{
-    BsdfPdf, LightPdf, LightSample, LightSampler, LightSamplerKind, MixturePdf, Pdf, Receiver,
+    BsdfPdf, GuidedLightDraw, LightPdf, LightSample, LightSampler, LightSamplerKind, MixturePdf,
+    Pdf, Receiver,
 };
 use crate::sampling::Rng;
 use crate::scene::{Scene, SurfacePoint};
@@ -479,39 +480,35 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         let at = receiver(surface, wo);
-        // A sky sample at a guided vertex comes with the guide's density along it.
-        let drawn = match guide {
-            Some(guide) if GUIDED => {
-                self.lights
-                    .sample_with_sky_guide(at, rng, guide.sky_share(), &guide)
-            }
-            _ => self.lights.sample(at, rng).map(|light| (light, None)),
-        };
-        let Some((light, sky_guide_pdf)) = drawn else {
+        let Some(drawn) = self.draw_light::<GUIDED, R>(at, guide, rng) else {
             return Vec3::ZERO;
         };
-        // The normal the guide of a guided sky sample is folded about.
-        let sky_normal = sky_guide_pdf.and(guide).map(|guide| guide.normal());
-        // Training learns a region's sky share from every sky sample, lit or not.
+        // Training learns a region's sky share from every sky sample, lit or not
+        // (complete already, see `draw_light`).
         let unlit = |recorder: &mut R| {
-            if let Some(normal) = sky_normal {
-                let draw = || Some(self.sky_draw(&light, normal, Vec3::ZERO));
+            if let (GuidedLightDraw::Complete(light, Some(_)), Some(guide)) = (&drawn, guide) {
+                let draw = || Some(self.sky_draw(light, guide.normal(), Vec3::ZERO));
                 recorder.light_sample(surface.p, light.dir, Vec3::ZERO, draw);
             }
             Vec3::ZERO
         };
-        let (f, bsdf_pdf) = bsdf.eval_pdf(wo, light.dir);
+        let (f, bsdf_pdf) = bsdf.eval_pdf(wo, drawn.dir());
         if f == Vec3::ZERO {
             return unlit(recorder);
         }
         count.rays += 1;
-        let shadow = match &light.point {
-            Some(point) => surface.origin().spawn_to(point),
-            None => surface.origin().spawn(light.dir),
+        let shadow = match drawn.point() {
+            Some(point) => surface.origin().spawn_to(&point),
+            None => surface.origin().spawn(drawn.dir()),
         };
         if self.accel.occluded(&shadow) {
             return unlit(recorder);
         }
+        let Some((light, sky_guide_pdf)) = self.complete_light(drawn, guide) else {
+            return Vec3::ZERO;
+        };
+        // The normal the guide of a guided sky sample is folded about.
+        let sky_normal = sky_guide_pdf.and(guide).map(|guide| guide.normal());
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
@@ -531,6 +528,53 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         );
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
+    }
+
+    /// The light sample of [`direct_light`](Self::direct_light), its sky direction
+    /// following the vertex's guide where it has one. Training learns a region's sky
+    /// share from every sky sample, lit or not, so it needs each one's density now; a
+    /// render looks up a sky sample's radiance and density only once its shadow ray is
+    /// clear ([`complete_light`](Self::complete_light)).
+    #[inline(always)]
+    fn draw_light<const GUIDED: bool, R: PathRecorder>(
+        &self,
+        at: Receiver,
+        guide: Option<VertexGuide>,
+        rng: &mut Rng,
+    ) -> Option<GuidedLightDraw> {
+        match guide {
+            Some(guide) if GUIDED => {
+                let share = guide.sky_share();
+                let drawn = self.lights.draw_with_sky_guide(at, rng, share, &guide)?;
+                if !R::RECORDS {
+                    return Some(drawn);
+                }
+                let (light, guide_pdf) = self.lights.complete(drawn, share, &guide)?;
+                Some(GuidedLightDraw::Complete(light, guide_pdf))
+            }
+            _ => {
+                let light = self.lights.sample(at, rng)?;
+                Some(GuidedLightDraw::Complete(light, None))
+            }
+        }
+    }
+
+    /// The light sample `drawn` at a vertex with `guide`, and the guide's density along
+    /// a sky sample's direction (see [`LightSampler::complete`]).
+    #[inline(always)]
+    fn complete_light(
+        &self,
+        drawn: GuidedLightDraw,
+        guide: Option<VertexGuide>,
+    ) -> Option<(LightSample, Option<f32>)> {
+        match (drawn, guide) {
+            (GuidedLightDraw::Complete(light, guide_pdf), _) => Some((light, guide_pdf)),
+            (GuidedLightDraw::Sky(_), Some(guide)) => {
+                self.lights.complete(drawn, guide.sky_share(), &guide)
+            }
+            // A sky draw comes only from a guide.
+            (GuidedLightDraw::Sky(_), None) => None,
+        }
     }
 
     /// What a guided vertex's sky sample (its guide folded about `normal`) tells

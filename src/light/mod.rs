@@ -17,5 +17,6 @@ pub mod spherical_triangle;
 pub use emitter::{Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
 pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
 pub use sampler::{
-    LightSample, LightSampler, LightSamplerKind, LightTarget, SkyGuide, BVH_MIN_EMITTERS,
+    GuidedLightDraw, LightSample, LightSampler, LightSamplerKind, LightTarget, SkyGuide,
+    BVH_MIN_EMITTERS,
 };

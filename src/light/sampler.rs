@@ -229,6 +229,53 @@ pub struct LightSample {
     pub emission: Vec3,
 }
 
+/// A light sample of [`LightSampler::draw_with_sky_guide`]: complete (an emitter's,
+/// or one whose sky direction was completed, with the guide's density along it), or a
+/// sky direction still to be completed ([`LightSampler::complete`]).
+#[derive(Clone, Copy, Debug)]
+pub enum GuidedLightDraw {
+    Complete(LightSample, Option<f32>),
+    Sky(SkyDraw),
+}
+
+impl GuidedLightDraw {
+    /// The unit direction towards the light.
+    #[inline]
+    pub fn dir(&self) -> Vec3 {
+        match self {
+            GuidedLightDraw::Complete(sample, _) => sample.dir,
+            GuidedLightDraw::Sky(draw) => draw.dir,
+        }
+    }
+
+    /// The point on the light a shadow ray ends at (`None` for the sky, at infinity).
+    #[inline]
+    pub fn point(&self) -> Option<SurfaceOrigin> {
+        match self {
+            GuidedLightDraw::Complete(sample, _) => sample.point,
+            GuidedLightDraw::Sky(_) => None,
+        }
+    }
+}
+
+/// A sky direction drawn at a guided vertex, before its radiance and its density are
+/// looked up ([`LightSampler::complete`]). Both are a cache miss or a quadtree
+/// descent, and a sample whose shadow ray is blocked needs neither: in the
+/// grey-white room that is most of them.
+#[derive(Clone, Copy, Debug)]
+pub struct SkyDraw {
+    pub dir: Vec3,
+    known: SkyDrawKnown,
+}
+
+/// What the draw of a [`SkyDraw`] found on the way: the guide's density (a draw from
+/// the guide) or the texel's radiance (a draw from the sky's own distribution).
+#[derive(Clone, Copy, Debug)]
+enum SkyDrawKnown {
+    GuidePdf(f32),
+    Radiance(Vec3),
+}
+
 impl LightSampler {
     /// The default sampler ([`LightSamplerKind::Auto`]) over the triangles of `mesh`
     /// whose material emits; `textures` are the scene's, for `map_Ke`.
@@ -475,13 +522,50 @@ impl LightSampler {
         share: f32,
         guide: &impl SkyGuide,
     ) -> Option<(LightSample, Option<f32>)> {
+        let drawn = self.draw_with_sky_guide(at, rng, share, guide)?;
+        self.complete(drawn, share, guide)
+    }
+
+    /// [`sample_with_sky_guide`](Self::sample_with_sky_guide)'s draw, a sky
+    /// direction's radiance and density left to [`complete_sky`](Self::complete_sky):
+    /// most sky samples in a room meet a wall, and these need neither (see
+    /// [`SkyDraw`]).
+    #[inline]
+    pub fn draw_with_sky_guide(
+        &self,
+        at: Receiver,
+        rng: &mut Rng,
+        share: f32,
+        guide: &impl SkyGuide,
+    ) -> Option<GuidedLightDraw> {
         let (u1, u2) = rng.pair();
         if u1 < self.sky_probability {
             let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
-            let (sample, guide_pdf) = self.sample_guided_sky((u1, u2), share, guide, rng)?;
-            return Some((sample, Some(guide_pdf)));
+            return self
+                .draw_guided_sky((u1, u2), share, guide, rng)
+                .map(GuidedLightDraw::Sky);
         }
-        Some((self.sample_emitter(at, (u1, u2), rng)?, None))
+        let emitter = self.sample_emitter(at, (u1, u2), rng)?;
+        Some(GuidedLightDraw::Complete(emitter, None))
+    }
+
+    /// The light sample of `drawn` (drawn with the same `share` and `guide`), and the
+    /// guide's density along a sky sample's direction; `None` where a sky sample's
+    /// density is not positive (a sample worth nothing).
+    #[inline]
+    pub fn complete(
+        &self,
+        drawn: GuidedLightDraw,
+        share: f32,
+        guide: &impl SkyGuide,
+    ) -> Option<(LightSample, Option<f32>)> {
+        match drawn {
+            GuidedLightDraw::Complete(sample, guide_pdf) => Some((sample, guide_pdf)),
+            GuidedLightDraw::Sky(draw) => {
+                let (sample, guide_pdf) = self.complete_sky(draw, share, guide)?;
+                Some((sample, Some(guide_pdf)))
+            }
+        }
     }
 
     /// The emitter half of [`sample`](Self::sample), from its 2-D draw.
@@ -552,24 +636,44 @@ impl LightSampler {
 
     /// The sky's direction from `guide` (where `u1 < share`) or from the sky's own
     /// distribution, `u1` and `u2` uniform in `[0, 1)`.
-    fn sample_guided_sky(
+    fn draw_guided_sky(
         &self,
         (u1, u2): (f32, f32),
         share: f32,
         guide: &impl SkyGuide,
         rng: &mut Rng,
-    ) -> Option<(LightSample, f32)> {
+    ) -> Option<SkyDraw> {
         let sky = self.sky.as_ref()?;
-        let (dir, guide_pdf, (emission, sky_pdf)) = if u1 < share {
+        if u1 < share {
             let (dir, guide_pdf) =
                 guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2));
-            (dir, guide_pdf, sky.radiance_and_pdf(dir))
-        } else {
-            let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
+            return Some(SkyDraw {
+                dir,
+                known: SkyDrawKnown::GuidePdf(guide_pdf),
+            });
+        }
+        let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
+        let drawn = sky.sample(rng.refine(u1), rng.refine(u2))?;
+        Some(SkyDraw {
+            dir: drawn.dir,
+            known: SkyDrawKnown::Radiance(drawn.radiance),
+        })
+    }
+
+    /// [`complete`](Self::complete) for a sky direction.
+    #[inline]
+    fn complete_sky(
+        &self,
+        draw: SkyDraw,
+        share: f32,
+        guide: &impl SkyGuide,
+    ) -> Option<(LightSample, f32)> {
+        let sky = self.sky.as_ref()?;
+        let dir = draw.dir;
+        let (guide_pdf, (emission, sky_pdf)) = match draw.known {
+            SkyDrawKnown::GuidePdf(guide_pdf) => (guide_pdf, sky.radiance_and_pdf(dir)),
             // The sky's own draw knows its texel's radiance (what `radiance` finds).
-            let drawn = sky.sample(rng.refine(u1), rng.refine(u2))?;
-            let radiance_and_pdf = (drawn.radiance, sky.pdf(drawn.dir));
-            (drawn.dir, guide.pdf(drawn.dir), radiance_and_pdf)
+            SkyDrawKnown::Radiance(radiance) => (guide.pdf(dir), (radiance, sky.pdf(dir))),
         };
         let pdf = self.sky_density(sky_pdf, Some((share, guide_pdf)));
         if !pdf.is_finite() || pdf <= 0.0 {
