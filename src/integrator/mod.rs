@@ -93,28 +93,27 @@ pub struct PathTracer<'a, A: Accel> {
 
 /// How emission met by the next ray counts, decided where that ray was chosen.
 #[derive(Clone, Copy, Debug)]
-enum EmissionWeight {
+enum EmissionWeight<'t> {
     /// In full: camera rays, delta bounces, BSDF-only and mixture sampling.
     Full,
     /// Not at all: the light sample at the previous vertex already counted it.
     Skip,
     /// MIS weight of a BSDF sample drawn with this density against light sampling
     /// from the receiver `from` (the vertex the ray left); with a guide, the density
-    /// of the BSDF–guide mixture that drew it, and `sky_guide`: the share of that
-    /// vertex's sky samples drawn from its guide and the guide's density along the
-    /// ray (see [`LightSampler::sample_with_sky_guide`]).
+    /// of the BSDF–guide mixture that drew it, and `sky_guide`: that vertex's guide,
+    /// which draws some of its sky samples (see [`SkyGuideAlong`]).
     Mis {
         bsdf_pdf: f32,
         from: Receiver,
-        sky_guide: Option<(f32, f32)>,
+        sky_guide: Option<SkyGuideAlong<'t>>,
     },
 }
 
-impl EmissionWeight {
+impl<'t> EmissionWeight<'t> {
     /// The weight of light met by the ray, given the density with which light
     /// sampling would have chosen the same direction (asked for only under MIS).
     #[inline]
-    fn weight(self, light_pdf: impl FnOnce(Receiver, Option<(f32, f32)>) -> f32) -> f32 {
+    fn weight(self, light_pdf: impl FnOnce(Receiver, Option<SkyGuideAlong<'t>>) -> f32) -> f32 {
         match self {
             EmissionWeight::Full => 1.0,
             EmissionWeight::Skip => 0.0,
@@ -127,12 +126,33 @@ impl EmissionWeight {
     }
 }
 
+/// The guide of the vertex a ray left, as the MIS weight of the sky the ray may meet
+/// needs it: its share of sky samples and its density along the ray. The density is
+/// known where the BSDF–guide mixture needed it; where the region draws no scattered
+/// directions from its guide (a selection probability of 0: most regions of a
+/// Cornell box, and every region in training but those that guide), it is looked up
+/// only if the ray meets the sky, rather than at every vertex.
+#[derive(Clone, Copy, Debug)]
+struct SkyGuideAlong<'t> {
+    guide: VertexGuide<'t>,
+    pdf: Option<f32>,
+}
+
+impl SkyGuideAlong<'_> {
+    /// The guide's sky share and its density along the ray's unit direction `dir`.
+    #[inline]
+    fn share_and_pdf(&self, dir: Vec3) -> (f32, f32) {
+        let pdf = self.pdf.unwrap_or_else(|| self.guide.pdf(dir));
+        (self.guide.sky_share(), pdf)
+    }
+}
+
 /// Where a path goes from a vertex: the next direction, the factor the throughput is
 /// multiplied by, and the first hit when choosing the direction needed the trace.
-struct Step {
+struct Step<'t> {
     dir: Vec3,
     weight: Vec3,
-    emission: EmissionWeight,
+    emission: EmissionWeight<'t>,
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
     traced: Option<Option<Hit>>,
@@ -400,7 +420,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// as decided where the ray was chosen. Lights are one-sided: they emit on the side
     /// of their winding normal.
     #[inline]
-    fn emission(&self, surface: &SurfacePoint, hit: &Hit, dir: Vec3, how: EmissionWeight) -> Vec3 {
+    fn emission(
+        &self,
+        surface: &SurfacePoint,
+        hit: &Hit,
+        dir: Vec3,
+        how: EmissionWeight<'_>,
+    ) -> Vec3 {
         let material = self.scene.material(surface);
         if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
             return Vec3::ZERO;
@@ -415,13 +441,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// Radiance of the sky seen along `dir`, weighted as decided where the ray was
     /// chosen (the sky is a light: next-event estimation samples it too).
     #[inline]
-    fn sky(&self, dir: Vec3, how: EmissionWeight) -> Vec3 {
+    fn sky(&self, dir: Vec3, how: EmissionWeight<'_>) -> Vec3 {
         let Some(sky) = &self.scene.sky else {
             return Vec3::ZERO;
         };
         // One lookup for both: the density's texel is the radiance's.
         let (radiance, sky_pdf) = sky.radiance_and_pdf(dir);
-        let weight = how.weight(|_, sky_guide| self.lights.sky_density(sky_pdf, sky_guide));
+        let weight = how.weight(|_, sky_guide| {
+            let sky_guide = sky_guide.map(|along| along.share_and_pdf(dir));
+            self.lights.sky_density(sky_pdf, sky_guide)
+        });
         if weight == 0.0 {
             return Vec3::ZERO;
         }
@@ -431,13 +460,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// Follows the BSDF's own sample. A `Mis` emission weight is completed with the
     /// sample's density; a delta sample's next emission always counts in full.
     #[inline(always)]
-    fn bsdf_step(
+    fn bsdf_step<'t>(
         &self,
         bsdf: &Bsdf,
         wo: Vec3,
-        emission: EmissionWeight,
+        emission: EmissionWeight<'t>,
         rng: &mut Rng,
-    ) -> Option<Step> {
+    ) -> Option<Step<'t>> {
         let (u1, u2) = rng.pair();
         let sample: BsdfSample = bsdf.sample(wo, Vec2::new(u1, u2))?;
         let emission = match emission {
@@ -596,25 +625,29 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// guide (with the guide's selection probability), weighted by `f·cos` over the
     /// mixture's density, which the next emission's MIS weight uses too.
     #[inline]
-    fn guided_step(
+    fn guided_step<'t>(
         &self,
         bsdf: &Bsdf,
         wo: Vec3,
-        guide: VertexGuide,
+        guide: VertexGuide<'t>,
         from: Receiver,
         rng: &mut Rng,
-    ) -> Option<Step> {
+    ) -> Option<Step<'t>> {
         let from_guide = rng.f32() < guide.selection();
         let (u1, u2) = rng.pair();
         let (wi, value, bsdf_pdf, guide_pdf) = if from_guide {
             let (wi, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             let (value, pdf) = bsdf.eval_pdf(wo, wi);
-            (wi, value, pdf, guide_pdf)
+            (wi, value, pdf, Some(guide_pdf))
         } else {
             let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
-            (sample.wi, sample.value, sample.pdf, guide.pdf(sample.wi))
+            // Where nothing is drawn from the guide, the mixture is the BSDF alone
+            // and the guide's density is left to the sky's MIS weight (see
+            // `SkyGuideAlong`).
+            let guide_pdf = (guide.selection() > 0.0).then(|| guide.pdf(sample.wi));
+            (sample.wi, sample.value, sample.pdf, guide_pdf)
         };
-        let pdf = guide.mixture_of(bsdf_pdf, guide_pdf);
+        let pdf = guide_pdf.map_or(bsdf_pdf, |guide_pdf| guide.mixture_of(bsdf_pdf, guide_pdf));
         if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
@@ -624,7 +657,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission: EmissionWeight::Mis {
                 bsdf_pdf: pdf,
                 from,
-                sky_guide: Some((guide.sky_share(), guide_pdf)),
+                sky_guide: Some(SkyGuideAlong {
+                    guide,
+                    pdf: guide_pdf,
+                }),
             },
             eta: 1.0,
             traced: None,
@@ -643,7 +679,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         wo: Vec3,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> Option<Step> {
+    ) -> Option<Step<'static>> {
         let bsdf_pdf = BsdfPdf { bsdf, wo };
         // Where no light can shine, the mixture is all BSDF: a light sample there would
         // be void. The weights depend only on the point, so the estimate stays unbiased.
