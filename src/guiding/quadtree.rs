@@ -10,6 +10,7 @@
 //! uniform within the leaf) and its density (the product of `4 · share` on the way
 //! down). An empty tree is the uniform distribution.
 
+use std::collections::VecDeque;
 use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
@@ -494,8 +495,10 @@ impl QuadTree {
     /// A new tree over this one's energy: a quadrant holding more than
     /// [`SUBDIVISION_SHARE`] of the total is subdivided (its children taking this
     /// tree's energies where it has them, a quarter each otherwise), the others are
-    /// leaves. An empty tree stays uniform. Built depth-first in quadrant order, so the
-    /// result is a function of the energies alone.
+    /// leaves. An empty tree stays uniform. Built breadth-first in quadrant order, so
+    /// the result is a function of the energies alone, and the levels every descent
+    /// reads first lie side by side at the front of the nodes, where the caches keep
+    /// them.
     pub fn refined(&self) -> QuadTree {
         let total = self.energy();
         if total <= 0.0 || !total.is_finite() {
@@ -506,8 +509,8 @@ impl QuadTree {
             energy: vec![self.energy[0]],
         };
         // (node in `out`, node in `self` or none, depth of `out`'s node)
-        let mut stack = vec![(0usize, Some(0usize), 1u32)];
-        while let Some((new, old, depth)) = stack.pop() {
+        let mut queue = VecDeque::from([(0usize, Some(0usize), 1u32)]);
+        while let Some((new, old, depth)) = queue.pop_front() {
             for q in 0..4 {
                 let e = out.energy[new][q];
                 if depth >= MAX_QUAD_DEPTH || e <= total * SUBDIVISION_SHARE {
@@ -525,7 +528,7 @@ impl QuadTree {
                 out.nodes.push(EMPTY_NODE);
                 out.energy.push(energy);
                 out.nodes[new].child[q] = index as u32;
-                stack.push((index, old_child, depth + 1));
+                queue.push_back((index, old_child, depth + 1));
             }
         }
         for (n, &e) in out.nodes.iter_mut().zip(&out.energy) {
