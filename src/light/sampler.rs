@@ -264,7 +264,7 @@ impl GuidedLightDraw {
 /// grey-white room that is most of them.
 #[derive(Clone, Copy, Debug)]
 pub struct SkyDraw {
-    pub dir: Vec3,
+    dir: Vec3,
     known: SkyDrawKnown,
 }
 
@@ -527,7 +527,7 @@ impl LightSampler {
     }
 
     /// [`sample_with_sky_guide`](Self::sample_with_sky_guide)'s draw, a sky
-    /// direction's radiance and density left to [`complete_sky`](Self::complete_sky):
+    /// direction's radiance and density left to [`complete`](Self::complete):
     /// most sky samples in a room meet a wall, and these need neither (see
     /// [`SkyDraw`]).
     #[inline]
