@@ -22,7 +22,7 @@ use std::path::PathBuf;
 use std::sync::OnceLock;
 
 use ember::film::checkpoint::{self, FilmReader, Header};
-use ember::film::{merge, shard_samples, Film};
+use ember::film::{merge, shard_samples, Film, Moments};
 use glam::DVec3;
 use proptest::prelude::*;
 use serde_json::{json, Value};
@@ -60,6 +60,17 @@ fn film(
         p.depth = 2.0 * p.kept as f32;
         p.converged = converged(i);
     }
+    // Guiding's training took the first half of the kept samples.
+    let training: Vec<_> = film
+        .pixels
+        .iter()
+        .map(|p| Moments {
+            sum: p.radiance * 0.4,
+            sum_sq: p.radiance_sq * 0.3,
+            kept: p.kept / 2,
+        })
+        .collect();
+    film.training = training;
     film
 }
 
@@ -295,6 +306,10 @@ fn check_film(film: &Film, header: &Header) -> Result<(), TestCaseError> {
         prop_assert!(p.kept <= p.done && p.done <= range);
         prop_assert!(p.radiance.is_finite() && p.albedo.is_finite() && p.depth.is_finite());
     }
+    prop_assert_eq!(film.training.is_empty(), !header.training);
+    for (t, p) in film.training.iter().zip(&film.pixels) {
+        prop_assert!(t.kept <= p.kept && t.sum.is_finite() && t.sum_sq.min_element() >= 0.0);
+    }
     prop_assert_eq!(film.min_done(), header.min_done);
     prop_assert_eq!(film.is_complete(), header.complete);
     let identity: Vec<_> = header
@@ -341,5 +356,28 @@ mod regressions {
         check(&huge).unwrap();
         std::fs::write(path(), huge.bytes()).unwrap();
         assert!(FilmReader::open(&path()).is_err());
+    }
+
+    /// A film reads back as it was written, training's share of the sums with it; a
+    /// pixel claiming more training samples than kept ones is refused.
+    #[test]
+    fn films_read_back_whole_and_training_cannot_exceed_the_kept_samples() {
+        let header = Header {
+            identity: identity(),
+            spp: 7,
+            ..Header::default()
+        };
+        let written = film(0..7, |i| 2 + (i % 3) as u32, |_| false);
+        std::fs::write(path(), checkpoint::encode(&header, &written)).unwrap();
+        let read = FilmReader::open(&path()).unwrap().read_film().unwrap();
+        assert_eq!(read, written);
+        let mut bad = written;
+        bad.training[5].kept = bad.pixels[5].kept + 1;
+        std::fs::write(path(), checkpoint::encode(&header, &bad)).unwrap();
+        let error = FilmReader::open(&path()).unwrap().read_film().unwrap_err();
+        assert!(
+            error.to_string().contains("inconsistent data at pixel 5"),
+            "{error}"
+        );
     }
 }

@@ -717,6 +717,12 @@ fn assert_same_samples(a: &Film, b: &Film) {
         let (a, b) = (a.radiance, b.radiance);
         assert!((a - b).abs().max_element() <= 1e-14 * b.max_element().max(1e-300));
     }
+    assert_eq!(a.training.len(), b.training.len());
+    for (a, b) in a.training.iter().zip(&b.training) {
+        assert_eq!(a.kept, b.kept);
+        let (a, b) = (a.sum, b.sum);
+        assert!((a - b).abs().max_element() <= 1e-14 * b.max_element().max(1e-300));
+    }
 }
 
 /// Every process trains the same guide before rendering, and the training's samples
@@ -732,6 +738,14 @@ fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
     let film = |samples| Film::new(settings.width, settings.height, samples);
     let whole = run_film(&built, &settings, film(0..40), None);
     assert!(whole.pixels.iter().all(|p| p.done == 40));
+    // Training's share of the sums, which the image weighs apart, is its 31 samples'
+    // (every estimate in this box is finite).
+    let kept = |(p, t): (&ember::film::PixelSums, &ember::film::Moments)| (p.kept, t.kept);
+    assert!(whole
+        .pixels
+        .iter()
+        .zip(&whole.training)
+        .all(|pt| kept(pt) == (40, 31)));
     // Stopped in training's second iteration (400 pixels, 400 + 800 samples), and
     // in the passes: at the first tile done of the pass from 32 to 40 spp (tiles of
     // 16, so 64 to 2048 samples each), whichever worker finishes first.
@@ -743,7 +757,7 @@ fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
             part.min_done()
         );
         let resumed = run_film(&built, &settings, part, None);
-        assert_eq!(resumed.pixels, whole.pixels, "resumed after {stop} samples");
+        assert_eq!(resumed, whole, "resumed after {stop} samples");
     }
     for cut in [12, 31] {
         let mut merged = run_film(&built, &settings, film(0..cut), None);
@@ -776,7 +790,7 @@ fn guided_renders_of_fewer_samples_than_training_resume_and_merge() {
     let part = run_film(&built, &settings, film(0..6), Some(700));
     assert!(part.min_done() < 6, "stopped early");
     let resumed = run_film(&built, &settings, part, None);
-    assert_eq!(resumed.pixels, whole.pixels);
+    assert_eq!(resumed, whole);
     let mut merged = run_film(&built, &settings, film(0..2), None);
     merged.merge(&run_film(&built, &settings, film(2..6), None));
     assert_same_samples(&merged, &whole);
@@ -806,7 +820,7 @@ fn guided_adaptive_renders_resume_to_the_uninterrupted_film() {
         let part = run_film(&built, &settings, film(), Some(stop));
         assert!(!part.is_complete(), "stopped after {stop} samples");
         let resumed = run_film(&built, &settings, part, None);
-        assert_eq!(resumed.pixels, whole.pixels, "resumed after {stop} samples");
+        assert_eq!(resumed, whole, "resumed after {stop} samples");
     }
 }
 

@@ -86,6 +86,7 @@ fn header(identity: Identity, settings: &RenderSettings) -> Header {
         shard: None,
         min_done: 0,
         complete: false,
+        training: false,
     }
 }
 
@@ -328,7 +329,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
     let identity = identity_of(&f.scene, &f.camera_settings, &f.settings);
     let film = Film::new(f.settings.width, f.settings.height, 0..f.settings.spp);
     let mut bytes = checkpoint::encode(&header(identity.clone(), &f.settings), &film);
-    for version in [1u32, 2, 4] {
+    for version in [1u32, 2, 3, 5] {
         bytes[8..12].copy_from_slice(&version.to_le_bytes());
         std::fs::write(&path, &bytes).unwrap();
         let err = checkpoint::load(&path, &identity, 0..6)
@@ -336,7 +337,7 @@ fn checkpoints_of_another_format_version_are_refused_in_one_line() {
             .to_string();
         assert!(
             err.contains(&format!("format version {version}"))
-                && err.contains("reads only version 3")
+                && err.contains("reads only version 4")
                 && !err.contains('\n'),
             "{err}"
         );

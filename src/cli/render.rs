@@ -443,8 +443,10 @@ impl RenderPlan {
             spp: self.settings.spp,
             samples: self.samples.clone(),
             shard: self.shard,
+            // These three are the film's, filled in when it is written.
             min_done: 0,
             complete: false,
+            training: false,
         }
     }
 }

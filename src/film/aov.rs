@@ -1,7 +1,8 @@
 //! Render passes (arbitrary output variables): what a film knows of each pixel beside
 //! its radiance, resolved to per-pixel values for an EXR layer or the denoiser.
 
-use super::{Film, PixelSums};
+use super::weights::SplitWeights;
+use super::{Film, Moments, PixelSums};
 use crate::image::layers::names;
 
 /// A render pass `--aov` can ask for.
@@ -56,7 +57,7 @@ impl Aov {
     }
 
     /// The pass's value at one pixel, one number per channel, into `out`.
-    fn values(self, p: &PixelSums, out: &mut Vec<f32>) {
+    fn values(self, p: &PixelSums, (weights, t): (&SplitWeights, &Moments), out: &mut Vec<f32>) {
         let mean = |sum: glam::Vec3| match p.kept {
             0 => glam::Vec3::ZERO,
             n => sum / n as f32,
@@ -68,7 +69,7 @@ impl Aov {
                 0 => 0.0,
                 n => p.depth / n as f32,
             }),
-            Aov::Variance => out.extend(p.variance_of_mean().as_vec3().to_array()),
+            Aov::Variance => out.extend(weights.variance_of_mean(p, t).as_vec3().to_array()),
             Aov::Spp => out.push(p.done as f32),
         }
     }
@@ -78,8 +79,12 @@ impl Film {
     /// A pass over the whole image, row by row, channels interleaved per pixel.
     pub fn aov(&self, aov: Aov) -> Vec<f32> {
         let mut out = Vec::with_capacity(self.pixels.len() * aov.channels().len());
-        for p in &self.pixels {
-            aov.values(p, &mut out);
+        let weights = match aov {
+            Aov::Variance => SplitWeights::of(self),
+            _ => SplitWeights::EQUAL,
+        };
+        for (i, p) in self.pixels.iter().enumerate() {
+            aov.values(p, (&weights, &self.training_of(i)), &mut out);
         }
         out
     }

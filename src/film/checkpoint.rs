@@ -6,12 +6,16 @@
 //! and that many bytes of JSON header (see [`Header`]), then per pixel row by row its
 //! [`PixelSums`] ([`PIXEL_BYTES`]: `f64` × 3 radiance sums and × 3 sums of squares,
 //! `f32` × 3 albedo, × 3 normal and × 1 depth sums, `u32` finite samples, `u32` samples
-//! taken, `u32` flags with bit 0 "converged"), and last the `u64` XXH3 hash of
-//! everything before it, so a damaged or truncated file is refused.
+//! taken, `u32` flags with bit 0 "converged"), followed, where the header says
+//! `"training": true`, by the part of them that path guiding's training added
+//! ([`TRAINING_BYTES`]: `f64` × 3 sums and × 3 sums of squares, `u32` finite samples),
+//! and last the `u64` XXH3 hash of everything before it, so a damaged or truncated file
+//! is refused.
 //!
 //! Version history: 1 (no accel, no algorithm version, a scene hash over `Debug` text,
-//! no sample range, FNV-1a); 2 (radiance sums and counts only); 3 (this one: the render
-//! passes, squares for the variance, adaptive sampling's flag, a "complete" claim).
+//! no sample range, FNV-1a); 2 (radiance sums and counts only); 3 (the render passes,
+//! squares for the variance, adaptive sampling's flag, a "complete" claim); 4 (this one:
+//! training's share of the sums, which the image weighs apart).
 //! Files of other versions are refused.
 
 use std::fs::File;
@@ -23,14 +27,16 @@ use glam::DVec3;
 use serde_json::{json, Map, Value};
 use xxhash_rust::xxh3::Xxh3;
 
-use super::{Film, PixelSums};
+use super::{Film, Moments, PixelSums};
 use crate::io::{self, WriteError};
 
 const MAGIC: &[u8; 8] = b"EMBERCKP";
 /// The film file format this ember reads and writes.
-pub const FORMAT_VERSION: u32 = 3;
+pub const FORMAT_VERSION: u32 = 4;
 /// The bytes of one pixel's record.
 pub const PIXEL_BYTES: usize = 6 * 8 + 7 * 4 + 3 * 4;
+/// The bytes that follow each pixel's record in a film with training's moments.
+pub const TRAINING_BYTES: usize = 6 * 8 + 4;
 /// A header this long is surely not ours (it holds a few hundred bytes of settings).
 const MAX_HEADER_BYTES: u32 = 1 << 20;
 
@@ -55,6 +61,16 @@ pub struct Header {
     pub min_done: u32,
     /// Whether every pixel has all its samples or was stopped by adaptive sampling.
     pub complete: bool,
+    /// Whether each pixel's record is followed by its training moments
+    /// ([`Film::training`]).
+    pub training: bool,
+}
+
+impl Header {
+    /// The bytes of one pixel in the file.
+    fn record_bytes(&self) -> usize {
+        PIXEL_BYTES + if self.training { TRAINING_BYTES } else { 0 }
+    }
 }
 
 impl Header {
@@ -114,11 +130,13 @@ fn header_json(header: &Header) -> String {
         "shard": header.shard.map(|(i, n)| [i, n]),
         "min_done": header.min_done,
         "complete": header.complete,
+        "training": header.training,
     })
     .to_string()
 }
 
-/// Encodes a film file. The header's size, range and `min_done` are taken from `film`.
+/// Encodes a film file. The header's size, range, `min_done`, `complete` and `training`
+/// are taken from `film`.
 pub fn encode(header: &Header, film: &Film) -> Vec<u8> {
     let header = Header {
         width: film.width,
@@ -126,16 +144,20 @@ pub fn encode(header: &Header, film: &Film) -> Vec<u8> {
         samples: film.samples.clone(),
         min_done: film.min_done(),
         complete: film.is_complete(),
+        training: !film.training.is_empty(),
         ..header.clone()
     };
     let json = header_json(&header);
-    let mut out = Vec::with_capacity(24 + json.len() + film.pixels.len() * PIXEL_BYTES);
+    let mut out = Vec::with_capacity(24 + json.len() + film.pixels.len() * header.record_bytes());
     out.extend_from_slice(MAGIC);
     out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
     out.extend_from_slice(&(json.len() as u32).to_le_bytes());
     out.extend_from_slice(json.as_bytes());
-    for p in &film.pixels {
+    for (i, p) in film.pixels.iter().enumerate() {
         encode_pixel(p, &mut out);
+        if let Some(t) = film.training.get(i) {
+            encode_training(t, &mut out);
+        }
     }
     let hash = xxhash_rust::xxh3::xxh3_64(&out);
     out.extend_from_slice(&hash.to_le_bytes());
@@ -158,6 +180,26 @@ fn encode_pixel(p: &PixelSums, out: &mut Vec<u8>) {
     for w in [p.kept, p.done, u32::from(p.converged)] {
         out.extend_from_slice(&w.to_le_bytes());
     }
+}
+
+fn encode_training(t: &Moments, out: &mut Vec<u8>) {
+    for c in t.sum.to_array().into_iter().chain(t.sum_sq.to_array()) {
+        out.extend_from_slice(&c.to_le_bytes());
+    }
+    out.extend_from_slice(&t.kept.to_le_bytes());
+}
+
+/// Training's moments of the pixel `p`, or `None` where they cannot be its: non-finite
+/// or negative sums, more samples than the pixel kept.
+fn decode_training(bytes: &[u8], p: &PixelSums) -> Option<Moments> {
+    let f64_at = |k: usize| f64::from_le_bytes(bytes[8 * k..8 * k + 8].try_into().expect("8"));
+    let t = Moments {
+        sum: DVec3::new(f64_at(0), f64_at(1), f64_at(2)),
+        sum_sq: DVec3::new(f64_at(3), f64_at(4), f64_at(5)),
+        kept: u32::from_le_bytes(bytes[48..52].try_into().expect("4")),
+    };
+    let finite = t.sum.is_finite() && t.sum_sq.is_finite();
+    (finite && t.sum_sq.min_element() >= 0.0 && t.kept <= p.kept).then_some(t)
 }
 
 /// One pixel's record, or `None` where its values cannot be a film's: non-finite or
@@ -267,30 +309,38 @@ impl FilmReader {
         }
     }
 
-    /// Calls `add(i, pixel)` for every pixel in order, then checks the hash and the
+    /// Calls `add(i, pixel, training)` for every pixel in order (`training` its
+    /// training moments where the film has them), then checks the hash and the
     /// header's claims against the pixels: on an error, what `add` received must be
     /// thrown away.
     pub fn read_pixels(
         mut self,
-        mut add: impl FnMut(usize, &PixelSums),
+        mut add: impl FnMut(usize, &PixelSums, Option<&Moments>),
     ) -> Result<(), CheckpointError> {
         let pixels = self.header.width as usize * self.header.height as usize;
         let range_len = self.header.samples.len() as u32;
-        let mut chunk = vec![0u8; PIXEL_BYTES * 4096];
+        let record = self.header.record_bytes();
+        let mut chunk = vec![0u8; record * 4096];
         let mut tally = PixelTally::new();
         let mut i = 0;
         while i < pixels {
             let n = (pixels - i).min(4096);
-            let bytes = &mut chunk[..n * PIXEL_BYTES];
+            let bytes = &mut chunk[..n * record];
             self.reader
                 .read_exact(bytes)
                 .map_err(|_| self.invalid("too short (truncated)"))?;
             self.hasher.update(bytes);
-            for px in bytes.chunks_exact(PIXEL_BYTES) {
-                match decode_pixel(px) {
-                    Some(p) if p.done <= range_len => {
+            for px in bytes.chunks_exact(record) {
+                let (sums, training) = px.split_at(PIXEL_BYTES);
+                let pixel = decode_pixel(sums).filter(|p| p.done <= range_len);
+                let training = pixel.map(|p| match self.header.training {
+                    true => decode_training(training, &p).map(Some),
+                    false => Some(None),
+                });
+                match pixel.zip(training.flatten()) {
+                    Some((p, t)) => {
                         tally.add(i, &p, &self.header);
-                        add(i, &p)
+                        add(i, &p, t.as_ref())
                     }
                     _ => return Err(self.invalid(&format!("inconsistent data at pixel {i}"))),
                 }
@@ -314,7 +364,12 @@ impl FilmReader {
     pub fn read_film(self) -> Result<Film, CheckpointError> {
         let h = &self.header;
         let mut film = Film::new(h.width, h.height, h.samples.clone());
-        self.read_pixels(|i, p| film.pixels[i] = *p)?;
+        self.read_pixels(|i, p, t| {
+            film.pixels[i] = *p;
+            if let Some(t) = t {
+                film.training_mut()[i] = *t;
+            }
+        })?;
         Ok(film)
     }
 }
@@ -360,15 +415,19 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
             .get("complete")
             .and_then(Value::as_bool)
             .ok_or("header lacks complete")?,
+        training: v
+            .get("training")
+            .and_then(Value::as_bool)
+            .ok_or("header lacks training")?,
     };
     Ok(header)
 }
 
-/// The length of a film file of `pixels` pixels whose JSON header is `json_len` bytes:
-/// preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
-fn file_len_for(json_len: u32, pixels: u64) -> Option<u64> {
+/// The length of a film file of `pixels` records of `record_bytes` whose JSON header is
+/// `json_len` bytes: preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
+fn file_len_for(json_len: u32, pixels: u64, record_bytes: usize) -> Option<u64> {
     pixels
-        .checked_mul(PIXEL_BYTES as u64)?
+        .checked_mul(record_bytes as u64)?
         .checked_add(16 + u64::from(json_len) + 8)
 }
 
@@ -420,7 +479,7 @@ fn check_header(h: &Header, json_len: u32, file_len: u64) -> Result<(), String> 
         ));
     }
     let pixels = u64::from(h.width) * u64::from(h.height);
-    match file_len_for(json_len, pixels) {
+    match file_len_for(json_len, pixels, h.record_bytes()) {
         Some(expected) if expected == file_len => Ok(()),
         expected => Err(format!(
             "{file_len} bytes where its {}x{} header promises {} (truncated or damaged)",

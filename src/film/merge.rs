@@ -113,7 +113,12 @@ pub fn merge(paths: &[PathBuf], allow_partial: bool) -> Result<(Film, MergeRepor
         if reader.header != *header {
             return Err(MergeError::Changed { path: path.clone() });
         }
-        reader.read_pixels(|i, p| film.pixels[i].merge(p))?;
+        reader.read_pixels(|i, p, t| {
+            film.pixels[i].merge(p);
+            if let Some(t) = t {
+                film.training_mut()[i].merge(t);
+            }
+        })?;
     }
     Ok((film, report))
 }

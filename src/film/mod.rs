@@ -14,6 +14,7 @@ pub mod aov;
 pub mod checkpoint;
 pub mod merge;
 pub mod output;
+pub mod weights;
 
 use std::ops::Range;
 
@@ -55,6 +56,50 @@ pub struct PixelSums {
     pub converged: bool,
 }
 
+/// Sums of a set of finite radiance estimates: the first two moments and the count.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Moments {
+    pub sum: DVec3,
+    pub sum_sq: DVec3,
+    pub kept: u32,
+}
+
+impl Moments {
+    /// Adds one finite estimate.
+    #[inline]
+    pub fn add(&mut self, l: DVec3) {
+        self.sum += l;
+        self.sum_sq += l * l;
+        self.kept += 1;
+    }
+
+    /// Adds the moments of other samples.
+    pub fn merge(&mut self, other: &Moments) {
+        self.sum += other.sum;
+        self.sum_sq += other.sum_sq;
+        self.kept += other.kept;
+    }
+
+    /// The samples' mean (black without any).
+    pub fn mean(&self) -> DVec3 {
+        match self.kept {
+            0 => DVec3::ZERO,
+            n => self.sum / f64::from(n),
+        }
+    }
+
+    /// The samples' unbiased variance per channel; `None` with fewer than two.
+    pub fn sample_variance(&self) -> Option<DVec3> {
+        if self.kept < 2 {
+            return None;
+        }
+        let n = f64::from(self.kept);
+        // Rounding can make E[x²] − E[x]² a hair negative for constant samples (and
+        // for the difference of two sets' sums, see `PixelSums::moments_without`).
+        Some(((self.sum_sq - self.sum * (self.sum / n)) / (n - 1.0)).max(DVec3::ZERO))
+    }
+}
+
 impl PixelSums {
     /// Adds one sample; a non-finite radiance estimate is counted as taken but left
     /// out of every sum. Returns whether it was kept.
@@ -74,6 +119,35 @@ impl PixelSums {
         true
     }
 
+    /// Adds one of guiding's training samples: as [`add`](Self::add), and to the
+    /// pixel's `training` moments too.
+    #[inline]
+    pub fn add_training(&mut self, s: &Sample, training: &mut Moments) -> bool {
+        let kept = self.add(s);
+        if kept {
+            training.add(s.radiance.as_dvec3());
+        }
+        kept
+    }
+
+    /// The moments of all kept samples.
+    pub fn moments(&self) -> Moments {
+        Moments {
+            sum: self.radiance,
+            sum_sq: self.radiance_sq,
+            kept: self.kept,
+        }
+    }
+
+    /// The moments of the samples that are not in `training` (the final guide's).
+    pub fn moments_without(&self, training: &Moments) -> Moments {
+        Moments {
+            sum: self.radiance - training.sum,
+            sum_sq: self.radiance_sq - training.sum_sq,
+            kept: self.kept - training.kept,
+        }
+    }
+
     /// Adds the sums of the same pixel over a later sample range (another shard).
     pub fn merge(&mut self, other: &PixelSums) {
         self.radiance += other.radiance;
@@ -88,26 +162,20 @@ impl PixelSums {
         self.converged |= other.converged;
     }
 
-    /// The mean radiance of the kept samples (black without any).
+    /// The mean radiance of the kept samples (black without any), each weighing the
+    /// same (the image weighs training's apart: [`Film::resolve`]).
     pub fn mean(&self) -> DVec3 {
-        match self.kept {
-            0 => DVec3::ZERO,
-            n => self.radiance / f64::from(n),
-        }
+        self.moments().mean()
     }
 
     /// The estimated variance of [`mean`](Self::mean) per channel: the samples'
     /// unbiased variance over their count. Infinite with fewer than two samples,
     /// since nothing is known of it then.
     pub fn variance_of_mean(&self) -> DVec3 {
-        if self.kept < 2 {
-            return DVec3::INFINITY;
+        match self.moments().sample_variance() {
+            Some(var) => var / f64::from(self.kept),
+            None => DVec3::INFINITY,
         }
-        let n = f64::from(self.kept);
-        let mean = self.radiance / n;
-        // Rounding can make E[x²] − E[x]² a hair negative for constant samples.
-        let sample_var = ((self.radiance_sq - self.radiance * mean) / (n - 1.0)).max(DVec3::ZERO);
-        sample_var / n
     }
 
     /// The pixel's estimated relative error as `ember compare` weighs it: the square
@@ -129,6 +197,11 @@ pub struct Film {
     /// `samples.start .. samples.start + pixels[i].done`.
     pub samples: Range<u32>,
     pub pixels: Vec<PixelSums>,
+    /// The part of each pixel's sums that path guiding's training samples added, kept
+    /// apart so that the image can weigh them against the final guide's by their
+    /// variances ([`weights`]): empty until a training sample is added (without
+    /// guiding, or in a shard past training's samples), then one per pixel.
+    pub training: Vec<Moments>,
 }
 
 /// A rectangle of a [`Film`] (x0, y0, width, height), copied out so that one worker at
@@ -137,6 +210,18 @@ pub struct Film {
 pub struct FilmTile {
     pub rect: (u32, u32, u32, u32),
     pub pixels: Vec<PixelSums>,
+    /// Training's moments of its pixels, as [`Film::training`]: empty or one a pixel.
+    pub training: Vec<Moments>,
+}
+
+impl FilmTile {
+    /// Pixel `i` and its training moments, which are made when first asked for.
+    pub fn training_pixel(&mut self, i: usize) -> (&mut PixelSums, &mut Moments) {
+        if self.training.is_empty() {
+            self.training = vec![Moments::default(); self.pixels.len()];
+        }
+        (&mut self.pixels[i], &mut self.training[i])
+    }
 }
 
 impl Film {
@@ -148,7 +233,21 @@ impl Film {
             height,
             samples,
             pixels: vec![PixelSums::default(); n],
+            training: Vec::new(),
         }
+    }
+
+    /// Pixel `i`'s training moments (zero where the film has none).
+    pub fn training_of(&self, i: usize) -> Moments {
+        self.training.get(i).copied().unwrap_or_default()
+    }
+
+    /// Training's moments, made (zero) when first asked for.
+    pub fn training_mut(&mut self) -> &mut [Moments] {
+        if self.training.is_empty() {
+            self.training = vec![Moments::default(); self.pixels.len()];
+        }
+        &mut self.training
     }
 
     /// Fewest samples any pixel has.
@@ -168,11 +267,14 @@ impl Film {
         self.pixels.iter().all(|p| p.converged || p.done >= len)
     }
 
-    /// The image so far: each pixel the mean of its finite samples (black without any).
+    /// The image so far: each pixel the mean of its finite samples (black without
+    /// any), guiding's training samples and the rest weighed by their variances
+    /// ([`weights::SplitWeights`]; the plain mean without guiding).
     pub fn resolve(&self) -> Image {
+        let weights = weights::SplitWeights::of(self);
         let mut image = Image::new(self.width, self.height);
-        for (out, p) in image.pixels.iter_mut().zip(&self.pixels) {
-            *out = p.mean().as_vec3();
+        for (i, (out, p)) in image.pixels.iter_mut().zip(&self.pixels).enumerate() {
+            *out = weights.mean(p, &self.training_of(i)).as_vec3();
         }
         image
     }
@@ -189,6 +291,11 @@ impl Film {
         for (a, b) in self.pixels.iter_mut().zip(&other.pixels) {
             a.merge(b);
         }
+        if !other.training.is_empty() {
+            for (a, b) in self.training_mut().iter_mut().zip(&other.training) {
+                a.merge(b);
+            }
+        }
         self.samples.end = other.samples.end;
     }
 
@@ -203,6 +310,13 @@ impl Film {
                     .rows(rect)
                     .flat_map(|row| self.pixels[row].iter().copied())
                     .collect(),
+                training: match self.training.is_empty() {
+                    true => Vec::new(),
+                    false => self
+                        .rows(rect)
+                        .flat_map(|row| self.training[row].iter().copied())
+                        .collect(),
+                },
             })
             .collect()
     }
@@ -212,6 +326,13 @@ impl Film {
         let w = tile.rect.2 as usize;
         for (r, row) in self.rows(tile.rect).enumerate() {
             self.pixels[row].copy_from_slice(&tile.pixels[r * w..(r + 1) * w]);
+        }
+        if !tile.training.is_empty() {
+            let rows: Vec<_> = self.rows(tile.rect).collect();
+            let training = self.training_mut();
+            for (r, row) in rows.into_iter().enumerate() {
+                training[row].copy_from_slice(&tile.training[r * w..(r + 1) * w]);
+            }
         }
     }
 

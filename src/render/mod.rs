@@ -87,11 +87,12 @@ impl RenderStats {
     }
 }
 
-/// Bytes of memory a render of `width × height` pixels holds: the film (sums, counts),
-/// its tile copies, adaptive sampling's error map, the image, its passes and the
-/// encoded output.
+/// Bytes of memory a render of `width × height` pixels holds: the film (sums, counts,
+/// and a guided render's training moments), its tile copies, adaptive sampling's error
+/// map, the image, its passes and the encoded output.
 pub fn render_memory_bytes(width: u32, height: u32) -> u64 {
-    const FILM_PIXEL: u64 = std::mem::size_of::<crate::film::PixelSums>() as u64;
+    const FILM_PIXEL: u64 = (std::mem::size_of::<crate::film::PixelSums>()
+        + std::mem::size_of::<crate::film::Moments>()) as u64;
     // The film and its tiles; adaptive sampling's error map, window maxima and calm
     // flags; the image; up to 13 pass channels of f32 and their EXR encoding.
     const PER_PIXEL: u64 = 2 * FILM_PIXEL + 8 + 8 + 1 + 12 + 2 * 13 * 4;

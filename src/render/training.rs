@@ -26,7 +26,7 @@ use rayon::prelude::*;
 
 use super::{camera_ray, RenderSettings, TiledFilm, TILE_SIZE};
 use crate::accel::Accel;
-use crate::film::{tile_rects, PixelSums, Sample};
+use crate::film::{tile_rects, FilmTile, Sample};
 use crate::guiding::{
     GuidedDraw, Guiding, GuidingStats, PathRecords, Record, SdTree, MAX_ITERATIONS,
 };
@@ -143,7 +143,7 @@ fn train<A: Accel>(
             let into = film.zip(tile.as_mut()).map(|(film, tile)| {
                 debug_assert_eq!(tile.rect, rects[j]);
                 FilmPixels {
-                    pixels: &mut tile.pixels,
+                    tile,
                     samples: film.samples.clone(),
                 }
             });
@@ -234,10 +234,9 @@ fn fill(
     Some((filling, draws))
 }
 
-/// The pixels of a film's tile that training adds its samples to, and the film's
-/// sample indices.
+/// The film's tile that training adds its samples to, and the film's sample indices.
 struct FilmPixels<'t> {
-    pixels: &'t mut [PixelSums],
+    tile: &'t mut FilmTile,
     samples: Range<u32>,
 }
 
@@ -248,9 +247,13 @@ impl FilmPixels<'_> {
     /// otherwise whether it was kept (finite).
     #[inline]
     fn offer(&mut self, i: usize, s: u32, sample: &Sample) -> Option<bool> {
-        let p = &mut self.pixels[i];
+        let p = &self.tile.pixels[i];
         let next = self.samples.start + p.done;
-        (s == next && s < self.samples.end && !p.converged).then(|| p.add(sample))
+        let fits = s == next && s < self.samples.end && !p.converged;
+        fits.then(|| {
+            let (p, training) = self.tile.training_pixel(i);
+            p.add_training(sample, training)
+        })
     }
 }
 
