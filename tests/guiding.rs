@@ -900,7 +900,8 @@ fn ember(args: &[&str]) -> Output {
 }
 
 /// `--guiding` with another integrator than mis is refused in one line before any
-/// work; a guided render reports its training and its tree.
+/// work; a guided render reports its training and its tree, and trains for an eighth
+/// of its samples unless told.
 #[test]
 fn the_guiding_flag() {
     let dir = tempfile::tempdir().unwrap();
@@ -934,6 +935,13 @@ fn the_guiding_flag() {
     assert!(stderr.contains("guiding trained in"), "{stderr}");
     assert!(stderr.contains("1728 samples"), "3 spp at 24², {stderr}");
     assert!(Path::new(out).is_file());
+    // Without --guiding-iterations, training takes at most an eighth of --spp: 3
+    // iterations (7 spp) of 64.
+    let default = [&common[..9], &["64", "--guiding"]].concat();
+    let guided = ember(&default);
+    let stderr = String::from_utf8_lossy(&guided.stderr);
+    assert!(guided.status.success(), "{stderr}");
+    assert!(stderr.contains("(4032 samples"), "7 spp at 24², {stderr}");
 }
 
 /// `--guide-image`'s picture is the learnt density: each pixel's value times its solid

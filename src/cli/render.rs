@@ -146,9 +146,11 @@ pub struct RenderArgs {
     /// 2^N − 1 of --spp.
     #[arg(long)]
     guiding: bool,
-    /// Training iterations of --guiding; iteration k takes 2^k samples per pixel.
-    #[arg(long, value_name = "N", requires = "guiding", default_value_t = Guiding::default().iterations, value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
-    guiding_iterations: u32,
+    /// Training iterations of --guiding; iteration k takes 2^k samples per pixel
+    /// [default: the most whose 2^N − 1 samples are at most an eighth of --spp, at
+    /// least 1: 3 at 64 spp, 5 at 256].
+    #[arg(long, value_name = "N", requires = "guiding", value_parser = clap::value_parser!(u32).range(1..=i64::from(MAX_ITERATIONS)))]
+    guiding_iterations: Option<u32>,
     /// With --guiding: write the learnt directional distribution at the first
     /// non-delta vertex of pixel --guide-pixel's centre ray to FILE (.exr, .hdr or
     /// .png), 256x128 pixels of density per steradian over an equal-area map of the
@@ -325,8 +327,9 @@ impl RenderPlan {
                 integrator: args.integrator.into(),
                 light_sampler: args.light_sampler.into(),
                 adaptive,
-                guiding: args.guiding.then_some(Guiding {
-                    iterations: args.guiding_iterations,
+                guiding: args.guiding.then(|| match args.guiding_iterations {
+                    Some(iterations) => Guiding { iterations },
+                    None => Guiding::for_spp(args.spp),
                 }),
             },
             camera: CameraRequest {
