@@ -944,6 +944,41 @@ fn the_guiding_flag() {
     assert!(stderr.contains("(4032 samples"), "7 spp at 24², {stderr}");
 }
 
+/// A guided render resumed to more samples without `--guiding-iterations` trains as its
+/// checkpoint did (3 iterations at 64 spp, where 128 spp alone would take 4): it
+/// resumes, to the image of one 128-spp render with 3 iterations, bit for bit.
+#[test]
+fn a_guided_resume_to_more_samples_keeps_its_training() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+    fn common<'a>(out: &'a str, spp: &'a str) -> Vec<&'a str> {
+        let scene = "meshes/CornellBox-Original.obj";
+        let size = ["--width", "16", "--height", "16", "--guiding"];
+        [&["render", scene, "-o", out, "--spp", spp][..], &size[..]].concat()
+    }
+    let (resumed, whole) = (path("resumed.exr"), path("whole.exr"));
+    let keep = ["--checkpoint-every", "3600"];
+    let first = ember(&[&common(&resumed, "64")[..], &keep[..]].concat());
+    assert!(
+        first.status.success(),
+        "{}",
+        String::from_utf8_lossy(&first.stderr)
+    );
+    let more = ember(&[&common(&resumed, "128")[..], &["--resume"][..]].concat());
+    let stderr = String::from_utf8_lossy(&more.stderr);
+    assert!(more.status.success(), "{stderr}");
+    let once = ember(&[&common(&whole, "128")[..], &["--guiding-iterations", "3"]].concat());
+    assert!(
+        once.status.success(),
+        "{}",
+        String::from_utf8_lossy(&once.stderr)
+    );
+    assert_eq!(
+        std::fs::read(&resumed).unwrap(),
+        std::fs::read(&whole).unwrap()
+    );
+}
+
 /// `--guide-image`'s picture is the learnt density: each pixel's value times its solid
 /// angle is the tree's mass over the pixel (the exact integral over the pixel's square
 /// cells), the pixels integrate to 1 over the sphere, and the guide's own draws fall

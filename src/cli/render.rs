@@ -24,7 +24,7 @@ use ember::accel::{
 };
 use ember::embree::{BuildQuality, Device};
 use ember::film::aov::Aov;
-use ember::film::checkpoint::{self, Header, Identity};
+use ember::film::checkpoint::{self, FilmReader, Header, Identity};
 use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::guiding::{Guiding, SdTree, MAX_ITERATIONS};
@@ -32,7 +32,7 @@ use ember::image::{self, Tonemap};
 use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, GuideView, PassReport, RenderControl, RenderSettings,
-    RenderStats,
+    RenderStats, GUIDING_ITERATIONS,
 };
 use ember::scene::{
     load_obj, Camera, CameraSettings, Environment, Instancing, Lens, LoadReport, Opacity, Scene,
@@ -284,6 +284,8 @@ struct RenderPlan {
     guide_image: Option<(PathBuf, (u32, u32))>,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
+    /// Whether `--guiding-iterations` was given (else a resume takes the checkpoint's).
+    guiding_iterations_given: bool,
 }
 
 impl RenderPlan {
@@ -297,6 +299,7 @@ impl RenderPlan {
         let samples = args
             .shard
             .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
+        let guiding_iterations_given = args.guiding_iterations.is_some();
         let adaptive = args.noise_threshold.map(|threshold| {
             let whole = Adaptive {
                 threshold,
@@ -355,11 +358,33 @@ impl RenderPlan {
             shard: args.shard,
             guide_image: args.guide_image.zip(args.guide_pixel),
             samples,
+            guiding_iterations_given,
         }
     }
 
     fn pixels(&self) -> u64 {
         u64::from(self.settings.width) * u64::from(self.settings.height)
+    }
+
+    /// A resumed guided render without `--guiding-iterations` trains as its checkpoint
+    /// did: the default follows `--spp`, which a resume may raise. (Where the
+    /// checkpoint is not guided, loading it refuses it.)
+    fn resume_guiding(&mut self) -> Result<()> {
+        let Some(guiding) = self.settings.guiding.as_mut() else {
+            return Ok(());
+        };
+        if !self.resume || self.guiding_iterations_given {
+            return Ok(());
+        }
+        let header = FilmReader::open(&self.checkpoint)?.header;
+        let theirs = header
+            .identity
+            .iter()
+            .find(|(k, _)| k == GUIDING_ITERATIONS);
+        if let Some(n) = theirs.and_then(|(_, v)| v.parse().ok()) {
+            guiding.iterations = n;
+        }
+        Ok(())
     }
 
     /// Refuses what can be refused before loading anything: an unwritable or unknown
@@ -589,6 +614,7 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     let mut plan = RenderPlan::from_args(args);
     plan.scene_file = scene_file;
     plan.check()?;
+    plan.resume_guiding()?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = plan.threads {
         pool = pool.num_threads(n as usize);

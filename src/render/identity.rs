@@ -19,6 +19,9 @@ use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels}
 /// 10's; the others are told apart by the identity's `light-sampler` entry.)
 pub const ALGORITHM_VERSION: u32 = 10;
 
+/// The identity's entry of a guided render's training iterations.
+pub const GUIDING_ITERATIONS: &str = "guiding-iterations";
+
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
 pub fn identity(
@@ -92,14 +95,16 @@ pub fn identity(
     // made before guiding existed keep their identity; the guide's name changes when
     // what a guided sample computes does (not ALGORITHM_VERSION, which unguided
     // renders share: theirs did not change).
-    let guiding = settings.guiding.map(|g| {
-        (
-            "guiding",
-            format!(
-                "sd-tree 8 (shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image), {} iterations, training seed from the render's",
-                g.iterations
+    // The iteration count stands apart, so that `--resume` can take it from a
+    // checkpoint (see `GUIDING_ITERATIONS`).
+    let guiding = settings.guiding.into_iter().flat_map(|g| {
+        [
+            (
+                "guiding",
+                "sd-tree 8 (shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image), training seed from the render's".to_owned(),
             ),
-        )
+            (GUIDING_ITERATIONS, g.iterations.to_string()),
+        ]
     });
     pairs
         .into_iter()

@@ -16,7 +16,7 @@ mod training;
 
 pub use adaptive::Adaptive;
 pub use guide_view::{guide_view, GuideView};
-pub use identity::{identity, scene_hash, ALGORITHM_VERSION};
+pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDING_ITERATIONS};
 pub use training::train_guide;
 
 use std::ops::Range;
