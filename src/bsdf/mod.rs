@@ -29,6 +29,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 use crate::color::luminance;
+use crate::sampling::ONE_BELOW;
 use crate::sampling::{cosine_hemisphere, Onb};
 
 /// Below this roughness a GGX conductor is treated as a perfect mirror (a delta lobe):
@@ -314,6 +315,3 @@ impl Bsdf {
         })
     }
 }
-
-/// The largest `f32` below 1: rescaled uniforms can round up to 1.0.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;

@@ -13,6 +13,7 @@
 use std::collections::VecDeque;
 use std::f32::consts::{FRAC_1_PI, PI};
 
+use crate::sampling::ONE_BELOW;
 use glam::{Vec2, Vec3};
 
 /// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
@@ -96,8 +97,6 @@ fn quadrant(p: Vec2) -> (usize, Vec2) {
     ) * 2.0;
     (q, local.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)))
 }
-
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// The probability of the first of two parts of weights `a` and `b` (even when both
 /// are empty, which only rounding could lead to).

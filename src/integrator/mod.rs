@@ -42,7 +42,7 @@ use crate::light::{
     BsdfPdf, GuidedLightDraw, LightPdf, LightSample, LightSampler, LightSamplerKind, MixturePdf,
     Pdf, Receiver,
 };
-use crate::sampling::Rng;
+use crate::sampling::{Rng, ONE_BELOW};
 use crate::scene::{Scene, SurfacePoint};
 
 /// Which light-transport estimator `ember render` uses.
@@ -633,8 +633,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         from: Receiver,
         rng: &mut Rng,
     ) -> Option<Step<'t>> {
-        let from_guide = rng.f32() < guide.selection();
-        let (u1, u2) = rng.pair();
+        // One 2-D draw, as an unguided step's: its first number chooses the guide or
+        // the BSDF and is stretched back to uniform within the choice. A coin of its
+        // own moved the direction's pair off the dimensions the unguided step reads,
+        // out of the first vertex's stratified (Sobol) set: the Cornell Original with
+        // every region unguided lost 12% in relMSE against unguided `mis`.
+        let (u, u2) = rng.pair();
+        let alpha = guide.selection();
+        let from_guide = u < alpha;
+        let u1 = match from_guide {
+            true => u / alpha,
+            false => (u - alpha) / (1.0 - alpha),
+        }
+        .min(ONE_BELOW);
         let (wi, value, bsdf_pdf, guide_pdf) = if from_guide {
             let (wi, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             let (value, pdf) = bsdf.eval_pdf(wo, wi);

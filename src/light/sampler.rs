@@ -33,6 +33,7 @@ use super::bvh::{LightBounds, LightBvh};
 use super::emitter::{Emitter, Receiver, NO_MAP};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
+use crate::sampling::ONE_BELOW;
 use crate::sampling::{AliasTable, Rng};
 use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
@@ -749,6 +750,3 @@ impl LightSampler {
         (1.0 - self.sky_probability) * self.chosen(at, i) * density
     }
 }
-
-/// The largest `f32` below 1: rescaled uniforms can round up to 1.0.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;

@@ -101,7 +101,7 @@ pub fn identity(
         [
             (
                 "guiding",
-                "sd-tree 8 (shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image), training seed from the render's".to_owned(),
+                "sd-tree 9 (training samples in the render's own sequences, shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image)".to_owned(),
             ),
             (GUIDING_ITERATIONS, g.iterations.to_string()),
         ]

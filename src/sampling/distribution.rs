@@ -1,6 +1,8 @@
 //! Discrete distributions sampled in constant time: Walker's alias method, built once
 //! (for example over a scene's emitters) and queried per sample without allocation.
 
+use super::ONE_BELOW;
+
 /// An alias table over `n` outcomes with given non-negative weights (Vose's O(n)
 /// construction). Sampling costs one multiplication and one comparison, whatever `n`.
 #[derive(Clone, Debug, Default)]
@@ -120,9 +122,6 @@ pub fn alias_draw(n: usize, u: f64, entry: impl Fn(usize) -> AliasEntry) -> (usi
     };
     (outcome, rest.clamp(0.0, ONE_BELOW))
 }
-
-/// The largest `f32` below 1: rescaled fractions can round up to 1.0.
-const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 #[cfg(test)]
 mod tests {

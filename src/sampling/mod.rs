@@ -12,6 +12,10 @@ pub use rng::{mix64, Rng};
 use glam::Vec3;
 use std::f32::consts::PI;
 
+/// The largest `f32` below 1: where a uniform number stretched back to `[0, 1)` (after
+/// a choice made with part of it) is clamped, as rounding can carry it to 1.
+pub const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
+
 /// A cosine-weighted direction in the local frame (z up): density `cos θ / π`.
 /// `u1`, `u2` are uniform in `[0, 1)`.
 #[inline]
