@@ -42,7 +42,7 @@ for rep in $(seq "${REPS:-2}"); do
     # Unguided spp, guided spp, training iterations: the guided render traces as many
     # paths as the unguided one (training's 2^it - 1 samples are the first of its
     # --spp, `sd-tree 6`; with `sd-tree 5` and before, g was 224 and 56, training
-    # coming on top).
+    # coming on top). The iterations are those `Guiding::for_spp` gives by default.
     case $scene in
       room) args=("${ROOM[@]}"); ref=$ROOM_REF; u=256; g=255; it=5 ;;
       stair) args=("${STAIR[@]}"); ref=$STAIR_REF; u=256; g=255; it=5 ;;
