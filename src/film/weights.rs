@@ -187,21 +187,16 @@ mod tests {
         // (7·9 + 24·0.25)/31².
         let least = 1.0 / (7.0 / 9.0 + 24.0 / 0.25);
         let equal = (7.0 * 9.0 + 24.0 * 0.25) / (31.0 * 31.0);
+        let within_10_percent = |what: &str, found: f64, expected: f64| {
+            let off = found / expected - 1.0;
+            assert!(off.abs() < 0.1, "{what}: {found} against {expected}");
+        };
         let (weighed, estimated) = errors(&film, &SplitWeights::of(&film));
-        assert!(
-            (weighed / least - 1.0).abs() < 0.1,
-            "{weighed} against {least}"
-        );
-        assert!(
-            (estimated / least - 1.0).abs() < 0.1,
-            "{estimated} against {least}"
-        );
+        within_10_percent("weighed", weighed, least);
+        within_10_percent("weighed, estimated", estimated, least);
         let (plain, estimated) = errors(&film, &SplitWeights::EQUAL);
-        assert!((plain / equal - 1.0).abs() < 0.1, "{plain} against {equal}");
-        assert!(
-            (estimated / equal - 1.0).abs() < 0.1,
-            "{estimated} against {equal}"
-        );
+        within_10_percent("equal", plain, equal);
+        within_10_percent("equal, estimated", estimated, equal);
         // And the image is the weighed one.
         let image = film.resolve();
         let weights = SplitWeights::of(&film);
