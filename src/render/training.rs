@@ -10,11 +10,10 @@
 //! pixel, guided by the tree of iteration `k − 1`, so samples `0 .. 2^N − 1` of a
 //! guided render with `N` iterations are training's, and the render's passes take
 //! the rest with the last tree. All use the render's seed, so a pixel's samples are one
-//! stratified (Sobol) sequence, as an unguided render's are: with a seed of training's
+//! stratified (Sobol) sequence, as an unguided render's are; with a seed of training's
 //! own (`sd-tree 8`), the passes' samples were the tail of a sequence whose head was
-//! never drawn, and lost much of the stratification's gain (Cornell Original, 63 spp,
-//! every region unguided: relMSE 1.30e-3 against 1.16e-3 unguided). Each is an
-//! unbiased estimate of the pixel (a guided path's weight divides by the mixture's
+//! never drawn (the larger loss was elsewhere: see `PathTracer::guided_step`). Each is
+//! an unbiased estimate of the pixel (a guided path's weight divides by the mixture's
 //! density, whatever the tree), so the pixel's mean over all of them is too. A training sample `s` of a
 //! pixel enters the film only as that pixel's next sample there, `samples.start +
 //! done`, within the film's range: a fresh film takes them all in order, a shard
