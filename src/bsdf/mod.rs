@@ -29,8 +29,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 use crate::color::luminance;
-use crate::sampling::ONE_BELOW;
-use crate::sampling::{cosine_hemisphere, Onb};
+use crate::sampling::{cosine_hemisphere, Onb, ONE_BELOW};
 
 /// Below this roughness a GGX conductor is treated as a perfect mirror (a delta lobe):
 /// its lobe is narrower than anything sampling could resolve.

@@ -71,9 +71,7 @@ impl Header {
     fn record_bytes(&self) -> usize {
         PIXEL_BYTES + if self.training { TRAINING_BYTES } else { 0 }
     }
-}
 
-impl Header {
     /// The film's name for messages: `shard 2/8`, or `a whole render`.
     pub fn label(&self) -> String {
         match self.shard {
@@ -332,12 +330,13 @@ impl FilmReader {
             self.hasher.update(bytes);
             for px in bytes.chunks_exact(record) {
                 let (sums, training) = px.split_at(PIXEL_BYTES);
-                let pixel = decode_pixel(sums).filter(|p| p.done <= range_len);
-                let training = pixel.map(|p| match self.header.training {
-                    true => decode_training(training, &p).map(Some),
-                    false => Some(None),
-                });
-                match pixel.zip(training.flatten()) {
+                let decoded = decode_pixel(sums)
+                    .filter(|p| p.done <= range_len)
+                    .and_then(|p| match self.header.training {
+                        true => Some((p, Some(decode_training(training, &p)?))),
+                        false => Some((p, None)),
+                    });
+                match decoded {
                     Some((p, t)) => {
                         tally.add(i, &p, &self.header);
                         add(i, &p, t.as_ref())
@@ -424,7 +423,8 @@ fn parse_header(json: &[u8]) -> Result<Header, String> {
 }
 
 /// The length of a film file of `pixels` records of `record_bytes` whose JSON header is
-/// `json_len` bytes: preamble, header, pixel records, hash. `None` past `u64` (no such file exists).
+/// `json_len` bytes: preamble, header, pixel records, hash. `None` past `u64` (no such
+/// file exists).
 fn file_len_for(json_len: u32, pixels: u64, record_bytes: usize) -> Option<u64> {
     pixels
         .checked_mul(record_bytes as u64)?

@@ -217,11 +217,17 @@ pub struct FilmTile {
 impl FilmTile {
     /// Pixel `i` and its training moments, which are made when first asked for.
     pub fn training_pixel(&mut self, i: usize) -> (&mut PixelSums, &mut Moments) {
-        if self.training.is_empty() {
-            self.training = vec![Moments::default(); self.pixels.len()];
-        }
-        (&mut self.pixels[i], &mut self.training[i])
+        let training = made_training(&mut self.training, self.pixels.len());
+        (&mut self.pixels[i], &mut training[i])
     }
+}
+
+/// `training`, made (zero, one per pixel) if it is still empty.
+fn made_training(training: &mut Vec<Moments>, pixels: usize) -> &mut [Moments] {
+    if training.is_empty() {
+        *training = vec![Moments::default(); pixels];
+    }
+    training
 }
 
 impl Film {
@@ -244,10 +250,7 @@ impl Film {
 
     /// Training's moments, made (zero) when first asked for.
     pub fn training_mut(&mut self) -> &mut [Moments] {
-        if self.training.is_empty() {
-            self.training = vec![Moments::default(); self.pixels.len()];
-        }
-        &mut self.training
+        made_training(&mut self.training, self.pixels.len())
     }
 
     /// Fewest samples any pixel has.
@@ -328,10 +331,9 @@ impl Film {
             self.pixels[row].copy_from_slice(&tile.pixels[r * w..(r + 1) * w]);
         }
         if !tile.training.is_empty() {
-            let rows: Vec<_> = self.rows(tile.rect).collect();
-            let training = self.training_mut();
-            for (r, row) in rows.into_iter().enumerate() {
-                training[row].copy_from_slice(&tile.training[r * w..(r + 1) * w]);
+            self.training_mut();
+            for (r, row) in self.rows(tile.rect).enumerate() {
+                self.training[row].copy_from_slice(&tile.training[r * w..(r + 1) * w]);
             }
         }
     }

@@ -13,8 +13,9 @@
 use std::collections::VecDeque;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use crate::sampling::ONE_BELOW;
 use glam::{Vec2, Vec3};
+
+use crate::sampling::ONE_BELOW;
 
 /// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
 /// `2^-20` of the square's side, where `f32` sampling coordinates still resolve them.

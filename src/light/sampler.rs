@@ -33,8 +33,7 @@ use super::bvh::{LightBounds, LightBvh};
 use super::emitter::{Emitter, Receiver, NO_MAP};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
-use crate::sampling::ONE_BELOW;
-use crate::sampling::{AliasTable, Rng};
+use crate::sampling::{AliasTable, Rng, ONE_BELOW};
 use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
 /// Directions towards the sky learnt outside the light module (path guiding's, at one

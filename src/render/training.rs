@@ -14,12 +14,12 @@
 //! own (`sd-tree 8`), the passes' samples were the tail of a sequence whose head was
 //! never drawn (the larger loss was elsewhere: see `PathTracer::guided_step`). Each is
 //! an unbiased estimate of the pixel (a guided path's weight divides by the mixture's
-//! density, whatever the tree), so the pixel's mean over all of them is too. A training sample `s` of a
-//! pixel enters the film only as that pixel's next sample there, `samples.start +
-//! done`, within the film's range: a fresh film takes them all in order, a shard
-//! those in its range, and a resumed film skips those it has, so resuming and
-//! merging shards stay exact. Each tile's samples go straight to the film's tile of
-//! the same rectangle (locked once, by the worker rendering it).
+//! density, whatever the tree), so the pixel's mean over all of them is too. A
+//! training sample `s` of a pixel enters the film only as that pixel's next sample
+//! there, `samples.start + done`, within the film's range: a fresh film takes them all
+//! in order, a shard those in its range, and a resumed film skips those it has, so
+//! resuming and merging shards stay exact. Each tile's samples go straight to the
+//! film's tile of the same rectangle (locked once, by the worker rendering it).
 
 use std::ops::Range;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
