@@ -256,7 +256,7 @@ impl QuadTree {
             self.deposit(d, value);
             return;
         }
-        self.splat(0, Vec2::ZERO, 1.0, (lo, hi), value / area);
+        self.splat((lo, hi), value / area);
     }
 
     /// The side of the leaf cell containing `p` in the square.
@@ -272,9 +272,41 @@ impl QuadTree {
         }
     }
 
+    /// Adds `density` times the area the box `(lo, hi)`, within the unit square,
+    /// shares with each cell.
+    ///
+    /// While the box lies within one quadrant of a node (above the level of its own
+    /// cell it nearly always does), that quadrant's share is the whole box and the
+    /// others' none, so the descent takes it without measuring the four: the same sums
+    /// as [`splat_overlaps`](Self::splat_overlaps) from the root, to the bit (`min` and
+    /// `max` return the box's own corners there), for a fraction of the work.
+    fn splat(&mut self, (lo, hi): (Vec2, Vec2), density: f64) {
+        let (mut node, mut origin, mut size) = (0usize, Vec2::ZERO, 1.0f32);
+        let extent = (hi - lo).max(Vec2::ZERO);
+        let whole = density * (f64::from(extent.x) * f64::from(extent.y));
+        loop {
+            let half = 0.5 * size;
+            let mid = origin + Vec2::splat(half);
+            // Both corners on one side of the middle along each axis (a box that ends
+            // on the middle has no area beyond it).
+            let (right, top) = (lo.x >= mid.x, lo.y >= mid.y);
+            if !((right || hi.x <= mid.x) && (top || hi.y <= mid.y)) {
+                return self.splat_overlaps(node, origin, size, (lo, hi), density);
+            }
+            let q = usize::from(right) | usize::from(top) << 1;
+            self.energy[node][q] += whole;
+            match self.nodes[node].child[q] {
+                0 => return,
+                c => node = c as usize,
+            }
+            origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * half;
+            size = half;
+        }
+    }
+
     /// Adds `density` times the overlap area of the box `(lo, hi)` with each quadrant
     /// of `node` (covering the square at `origin` of side `size`), and below.
-    fn splat(
+    fn splat_overlaps(
         &mut self,
         node: usize,
         origin: Vec2,
@@ -292,7 +324,7 @@ impl QuadTree {
             }
             self.energy[node][q] += density * area;
             if let c @ 1.. = self.nodes[node].child[q] {
-                self.splat(c as usize, at, half, (lo, hi), density);
+                self.splat_overlaps(c as usize, at, half, (lo, hi), density);
             }
         }
     }
@@ -572,6 +604,40 @@ pub fn mass_in_cone(density: &dyn Fn(Vec3) -> f32, axis: Vec3, half_angle: f32) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The splat's descent through the quadrants that hold the whole box gives the
+    /// energies of measuring every quadrant's overlap from the root, to the bit, for
+    /// boxes around directions all over a tree refined around a few lobes, small and
+    /// large, clipped at the square's edges or not.
+    #[test]
+    fn splat_descends_to_the_exact_overlaps() {
+        let mut tree = QuadTree::uniform();
+        let lobes = [
+            Vec2::new(0.3, 0.7),
+            Vec2::new(0.9, 0.05),
+            Vec2::new(0.5, 0.5),
+        ];
+        for _ in 0..6 {
+            let mut filling = tree.cleared();
+            for (i, &lobe) in lobes.iter().enumerate() {
+                filling.deposit(square_to_direction(lobe), 1.0 + i as f64);
+            }
+            filling.deposit(Vec3::Z, 0.5);
+            tree = filling.refined();
+        }
+        assert!(tree.depth() >= 6);
+        let mut rng = crate::sampling::Rng::seeded(5);
+        for i in 0..2000 {
+            let (u1, u2) = rng.pair();
+            let p = Vec2::new(u1, u2);
+            let half = Vec2::splat(0.5 * tree.cell_size(p) * [0.3, 1.0, 2.5][i % 3]);
+            let boxed = ((p - half).max(Vec2::ZERO), (p + half).min(Vec2::ONE));
+            let (mut fast, mut exact) = (tree.cleared(), tree.cleared());
+            fast.splat(boxed, 1.7);
+            exact.splat_overlaps(0, Vec2::ZERO, 1.0, boxed, 1.7);
+            assert_eq!(fast.energy, exact.energy, "box {boxed:?}");
+        }
+    }
 
     #[test]
     fn square_and_sphere_round_trip() {
