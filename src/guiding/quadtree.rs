@@ -15,7 +15,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
-use crate::sampling::ONE_BELOW;
+use crate::sampling::{choose_second, ONE_BELOW};
 
 /// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
 /// `2^-20` of the square's side, where `f32` sampling coordinates still resolve them.
@@ -108,19 +108,6 @@ fn share(a: f32, b: f32) -> f32 {
     } else {
         0.5
     }
-}
-
-/// Whether the uniform `u` chooses the second of two parts, the first having
-/// probability `p_first`; `u` is rescaled to a uniform within the part chosen.
-#[inline]
-fn choose_second(u: &mut f32, p_first: f32) -> bool {
-    let second = *u >= p_first;
-    *u = if second {
-        (*u - p_first) / (1.0 - p_first)
-    } else {
-        *u / p_first
-    };
-    second
 }
 
 /// The square's coordinates of a unit direction.

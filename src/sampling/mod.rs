@@ -16,6 +16,20 @@ use std::f32::consts::PI;
 /// a choice made with part of it) is clamped, as rounding can carry it to 1.
 pub const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
+/// Whether the uniform `u` chooses the second of two parts, the first having
+/// probability `p_first`; `u` is rescaled to a uniform within the part chosen (not
+/// clamped: see [`ONE_BELOW`]), so one number both chooses and draws.
+#[inline]
+pub fn choose_second(u: &mut f32, p_first: f32) -> bool {
+    let second = *u >= p_first;
+    *u = if second {
+        (*u - p_first) / (1.0 - p_first)
+    } else {
+        *u / p_first
+    };
+    second
+}
+
 /// A cosine-weighted direction in the local frame (z up): density `cos θ / π`.
 /// `u1`, `u2` are uniform in `[0, 1)`.
 #[inline]
