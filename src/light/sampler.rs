@@ -33,7 +33,7 @@ use super::bvh::{LightBounds, LightBvh};
 use super::emitter::{Emitter, Receiver, NO_MAP};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
-use crate::sampling::{AliasTable, Rng, ONE_BELOW};
+use crate::sampling::{choose_second, AliasTable, Rng, ONE_BELOW};
 use crate::scene::{Environment, Material, Texture, TriangleMesh};
 
 /// Directions towards the sky learnt outside the light module (path guiding's, at one
@@ -268,6 +268,14 @@ pub struct SkyDraw {
     known: SkyDrawKnown,
 }
 
+/// What a light sample's first uniform chose, and that uniform rescaled for the
+/// choice's own draw.
+#[derive(Clone, Copy, Debug)]
+enum SkyOrEmitter {
+    Sky(f32),
+    Emitter(f32),
+}
+
 /// What the draw of a [`SkyDraw`] found on the way: the guide's density (a draw from
 /// the guide) or the texel's radiance (a draw from the sky's own distribution).
 #[derive(Clone, Copy, Debug)]
@@ -500,12 +508,11 @@ impl LightSampler {
     pub fn sample(&self, at: Receiver, rng: &mut Rng) -> Option<LightSample> {
         // One 2-D draw chooses the sky or an emitter, and the point on it (see
         // AliasTable::sample).
-        let (u1, u2) = rng.pair();
-        if u1 < self.sky_probability {
-            let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
-            return self.sample_sky(rng.refine(u1), rng.refine(u2));
+        let (choice, u2) = self.choose_sky_or_emitter(rng);
+        match choice {
+            SkyOrEmitter::Sky(u1) => self.sample_sky(rng.refine(u1), rng.refine(u2)),
+            SkyOrEmitter::Emitter(u1) => self.sample_emitter(at, (u1, u2), rng),
         }
-        self.sample_emitter(at, (u1, u2), rng)
     }
 
     /// [`sample`](Self::sample), except that where the sky is chosen, its direction
@@ -538,15 +545,31 @@ impl LightSampler {
         share: f32,
         guide: &impl SkyGuide,
     ) -> Option<GuidedLightDraw> {
-        let (u1, u2) = rng.pair();
-        if u1 < self.sky_probability {
-            let u1 = (u1 / self.sky_probability).min(ONE_BELOW);
-            return self
+        match self.choose_sky_or_emitter(rng) {
+            (SkyOrEmitter::Sky(u1), u2) => self
                 .draw_guided_sky((u1, u2), share, guide, rng)
-                .map(GuidedLightDraw::Sky);
+                .map(GuidedLightDraw::Sky),
+            (SkyOrEmitter::Emitter(u1), u2) => {
+                let emitter = self.sample_emitter(at, (u1, u2), rng)?;
+                Some(GuidedLightDraw::Complete(emitter, None))
+            }
         }
-        let emitter = self.sample_emitter(at, (u1, u2), rng)?;
-        Some(GuidedLightDraw::Complete(emitter, None))
+    }
+
+    /// A light sample's 2-D draw, its first uniform choosing the sky (with
+    /// probability [`sky_probability`](Self::sky_probability)) or an emitter, and
+    /// rescaled to a fresh uniform for the choice's own draw.
+    #[inline(always)]
+    fn choose_sky_or_emitter(&self, rng: &mut Rng) -> (SkyOrEmitter, f32) {
+        let (mut u1, u2) = rng.pair();
+        let emitter = choose_second(&mut u1, self.sky_probability);
+        let u1 = u1.min(ONE_BELOW);
+        let choice = if emitter {
+            SkyOrEmitter::Emitter(u1)
+        } else {
+            SkyOrEmitter::Sky(u1)
+        };
+        (choice, u2)
     }
 
     /// The light sample of `drawn` (drawn with the same `share` and `guide`), and the
@@ -568,7 +591,8 @@ impl LightSampler {
         }
     }
 
-    /// The emitter half of [`sample`](Self::sample), from its 2-D draw.
+    /// The emitter half of [`sample`](Self::sample), from its 2-D draw (the first
+    /// uniform as [`choose_sky_or_emitter`](Self::choose_sky_or_emitter) left it).
     #[inline(always)]
     fn sample_emitter(
         &self,
@@ -576,8 +600,7 @@ impl LightSampler {
         (u1, u2): (f32, f32),
         rng: &mut Rng,
     ) -> Option<LightSample> {
-        let u1 = (u1 - self.sky_probability) / (1.0 - self.sky_probability);
-        let u1 = rng.refine(u1.min(ONE_BELOW));
+        let u1 = rng.refine(u1);
         let (i, pdf, drawn) = match self.choice.as_ref()? {
             // The default: no receiver-dependent choice, no solid-angle rule on its path
             // (`area_density` already holds the sky's share and the table's pmf).
@@ -644,15 +667,16 @@ impl LightSampler {
         rng: &mut Rng,
     ) -> Option<SkyDraw> {
         let sky = self.sky.as_ref()?;
-        if u1 < share {
-            let (dir, guide_pdf) =
-                guide.sample_with_pdf(Vec2::new((u1 / share).min(ONE_BELOW), u2));
+        let mut u1 = u1;
+        let from_sky = choose_second(&mut u1, share);
+        let u1 = u1.min(ONE_BELOW);
+        if !from_sky {
+            let (dir, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             return Some(SkyDraw {
                 dir,
                 known: SkyDrawKnown::GuidePdf(guide_pdf),
             });
         }
-        let u1 = ((u1 - share) / (1.0 - share)).min(ONE_BELOW);
         let drawn = sky.sample(rng.refine(u1), rng.refine(u2))?;
         Some(SkyDraw {
             dir: drawn.dir,
