@@ -26,32 +26,70 @@ pub const MAX_QUAD_DEPTH: u32 = 20;
 /// most `1 + MAX_QUAD_DEPTH / ρ` nodes (2001): see [`max_nodes`](QuadTree::max_nodes).
 pub const SUBDIVISION_SHARE: f64 = 0.01;
 
-/// One node as sampling and the density read it: its quadrants' children (`x ≥ ½` is
-/// bit 0 of a quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being
-/// nobody's child), and the factor each quadrant multiplies the density by,
-/// `4 · energy / total` (1 when the node is empty), fixed when the tree is built by
-/// [`QuadTree::refined`]: sampling and the density read only these, in `f32` (a
-/// division per level less), while deposits add to the energies (kept apart, see
-/// [`QuadTree`]), which the next refinement reads.
+/// One node as sampling and the density read it, in 16 bytes (four to a cache line:
+/// a descent waits on a cache miss per level, and the room's trees held 1.4 MiB of
+/// nodes at 32 bytes, more than a core's L2): its quadrants' children (`x ≥ ½` is bit
+/// 0 of a quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being
+/// nobody's child; a tree has at most [`max_nodes`](QuadTree::max_nodes) nodes, so
+/// 16 bits index them), and each quadrant's weight, its share of the node's energy in
+/// units of `1 / WEIGHT_SUM`, fixed when the tree is built by [`QuadTree::refined`].
+/// The weights sum to `WEIGHT_SUM`, a power of two, so a quadrant's density factor
+/// `4 · weight / WEIGHT_SUM` is exact in `f32`, and sampling's choices (ratios of
+/// the same weights) draw each quadrant with the probability the density gives it.
+/// Deposits add to the energies (kept apart, see [`QuadTree`]), which the next
+/// refinement reads.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct QuadNode {
-    child: [u32; 4],
-    factor: [f32; 4],
+    child: [u16; 4],
+    weight: [u16; 4],
 }
+
+/// What a node's quadrant weights sum to (see [`QuadNode`]): a share resolved to
+/// 1/32768 of the node's energy, far below what a region's records estimate.
+const WEIGHT_SUM: u32 = 1 << 15;
+
+/// The density factor of one weight unit, `4 / WEIGHT_SUM` (exact).
+const FACTOR_PER_WEIGHT: f32 = 4.0 / WEIGHT_SUM as f32;
+
+// A child's index fits in 16 bits.
+const _: () = assert!(QuadTree::max_nodes() <= u16::MAX as usize + 1);
 
 const EMPTY_NODE: QuadNode = QuadNode {
     child: [0; 4],
-    factor: [1.0; 4],
+    weight: [(WEIGHT_SUM / 4) as u16; 4],
 };
 
-/// The density factors of a node with quadrant energies `e` (see [`QuadNode`]).
-fn factors(e: [f64; 4]) -> [f32; 4] {
-    let total: f64 = e.iter().sum();
-    if total > 0.0 {
-        e.map(|q| (4.0 * q / total) as f32)
-    } else {
-        [1.0; 4]
+impl QuadNode {
+    /// The factor quadrant `q` multiplies the density by.
+    #[inline(always)]
+    fn factor(&self, q: usize) -> f32 {
+        f32::from(self.weight[q]) * FACTOR_PER_WEIGHT
     }
+}
+
+/// The quadrant weights of a node with quadrant energies `e` (see [`QuadNode`]):
+/// each its share rounded to the nearest unit, at least one unit where it has any
+/// energy (so the guide never rules out a direction it has seen light from), the
+/// largest taking what rounding left over so that they sum to `WEIGHT_SUM`. An
+/// empty node is uniform.
+fn weights(e: [f64; 4]) -> [u16; 4] {
+    let total: f64 = e.iter().sum();
+    if !(total > 0.0 && total.is_finite()) {
+        return EMPTY_NODE.weight;
+    }
+    let mut w = e.map(|q| {
+        if q > 0.0 {
+            ((q / total * f64::from(WEIGHT_SUM)).round() as u32).max(1)
+        } else {
+            0
+        }
+    });
+    let largest = (0..4).max_by_key(|&q| w[q]).unwrap_or(0);
+    let rest: u32 = (0..4).filter(|&q| q != largest).map(|q| w[q]).sum();
+    // The largest holds at least a quarter, and the others were rounded up by at
+    // most a unit each, so what is left is positive and at most `WEIGHT_SUM`.
+    w[largest] = WEIGHT_SUM - rest;
+    w.map(|q| q as u16)
 }
 
 /// A leaf cell of a tree's square, as a draw found it: its lower corner, its side
@@ -76,8 +114,8 @@ impl SquareCell {
 pub struct QuadTree {
     nodes: Vec<QuadNode>,
     /// The energies of each node's quadrants, apart from the nodes: sampling and the
-    /// density never read them, so a node they descend through takes 32 bytes of
-    /// cache rather than 64.
+    /// density never read them, so a node they descend through takes 16 bytes of
+    /// cache rather than 48.
     energy: Vec<[f64; 4]>,
 }
 
@@ -334,7 +372,7 @@ impl QuadTree {
     fn density_step(&self, at: usize, p: Vec2, density: f32) -> (Option<usize>, Vec2, f32) {
         let n = &self.nodes[at];
         let (q, local) = quadrant(p);
-        let density = density * n.factor[q];
+        let density = density * n.factor(q);
         let next = match n.child[q] {
             0 => None,
             _ if density == 0.0 => None,
@@ -379,7 +417,10 @@ impl QuadTree {
         let mut density = 1.0f32;
         let mut node = 0usize;
         loop {
-            let f = self.nodes[node].factor;
+            let n = self.nodes[node];
+            // The weights, exact in `f32`, as are their sums: each choice's
+            // probability is their ratio, as the density's factors are.
+            let f = n.weight.map(f32::from);
             let right = choose_second(&mut u.x, share(f[0] + f[2], f[1] + f[3]));
             let (bottom_f, top_f) = if right { (f[1], f[3]) } else { (f[0], f[2]) };
             let top = choose_second(&mut u.y, share(bottom_f, top_f));
@@ -387,8 +428,8 @@ impl QuadTree {
             let q = usize::from(right) | usize::from(top) << 1;
             size *= 0.5;
             origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;
-            density *= f[q];
-            if let c @ 1.. = self.nodes[node].child[q] {
+            density *= n.factor(q);
+            if let c @ 1.. = n.child[q] {
                 node = c as usize;
                 continue;
             }
@@ -426,7 +467,7 @@ impl QuadTree {
             let at = origin + Vec2::new((q & 1) as f32, (q >> 1) as f32) * half;
             let overlap = (hi.min(at + Vec2::splat(half)) - lo.max(at)).max(Vec2::ZERO);
             let area = f64::from(overlap.x) * f64::from(overlap.y);
-            let d = density * f64::from(n.factor[q]);
+            let d = density * f64::from(n.factor(q));
             if area <= 0.0 || d == 0.0 {
                 continue;
             }
@@ -546,12 +587,12 @@ impl QuadTree {
                 let index = out.nodes.len();
                 out.nodes.push(EMPTY_NODE);
                 out.energy.push(energy);
-                out.nodes[new].child[q] = index as u32;
+                out.nodes[new].child[q] = index as u16;
                 queue.push_back((index, old_child, depth + 1));
             }
         }
         for (n, &e) in out.nodes.iter_mut().zip(&out.energy) {
-            n.factor = factors(e);
+            n.weight = weights(e);
         }
         out
     }
@@ -624,6 +665,41 @@ mod tests {
             exact.splat_overlaps(0, Vec2::ZERO, 1.0, boxed, 1.7);
             assert_eq!(fast.energy, exact.energy, "box {boxed:?}");
         }
+    }
+
+    /// A node's weights sum to `WEIGHT_SUM` whatever the energies (so the density's
+    /// factors are the choices' probabilities times 4), keep every quadrant that has
+    /// energy and none that has not, and are the shares to within rounding.
+    #[test]
+    fn weights_are_the_shares_summing_to_a_power_of_two() {
+        let mut rng = crate::sampling::Rng::seeded(9);
+        for i in 0..20_000 {
+            // Shares from even to extreme (one quadrant 1e-12 of another), some empty.
+            let e: [f64; 4] = std::array::from_fn(|q| {
+                let (u, v) = rng.pair();
+                if (i + q) % 7 == 0 {
+                    0.0
+                } else {
+                    f64::from(u) * 10f64.powf(-12.0 * f64::from(v) * f64::from(i % 3 == 0))
+                }
+            });
+            let w = weights(e);
+            let total: f64 = e.iter().sum();
+            assert_eq!(
+                w.iter().map(|&x| u32::from(x)).sum::<u32>(),
+                WEIGHT_SUM,
+                "{e:?}"
+            );
+            for q in 0..4 {
+                assert_eq!(w[q] > 0, e[q] > 0.0 || total == 0.0, "{e:?} → {w:?}");
+                if total > 0.0 {
+                    let share = f64::from(w[q]) / f64::from(WEIGHT_SUM);
+                    assert!((share - e[q] / total).abs() <= 4.0 / f64::from(WEIGHT_SUM));
+                }
+            }
+        }
+        assert_eq!(weights([0.0; 4]), EMPTY_NODE.weight);
+        assert_eq!(weights([f64::INFINITY, 1.0, 0.0, 0.0]), EMPTY_NODE.weight);
     }
 
     #[test]

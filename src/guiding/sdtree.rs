@@ -49,7 +49,7 @@ pub const MIN_LIT_DRAWS: u64 = 16;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
 /// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
-/// `MAX_SPATIAL_NODES · 4 + 2048 · (2001 · 64 + 136)` bytes (≈ 262 MB) while guiding
+/// `MAX_SPATIAL_NODES · 4 + 2048 · (2001 · 48 + 136)` bytes (≈ 197 MB) while guiding
 /// a render, twice that while training (the tree being filled beside the one that
 /// guides).
 pub const MAX_SPATIAL_NODES: usize = 4095;
