@@ -26,13 +26,13 @@ pub const MAX_QUAD_DEPTH: u32 = 20;
 /// most `1 + MAX_QUAD_DEPTH / ρ` nodes (2001): see [`max_nodes`](QuadTree::max_nodes).
 pub const SUBDIVISION_SHARE: f64 = 0.01;
 
-/// One node as sampling and the density read it, in 16 bytes (four to a cache line:
-/// a descent waits on a cache miss per level, and the room's trees held 1.4 MiB of
-/// nodes at 32 bytes, more than a core's L2): its quadrants' children (`x ≥ ½` is bit
-/// 0 of a quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being
-/// nobody's child; a tree has at most [`max_nodes`](QuadTree::max_nodes) nodes, so
-/// 16 bits index them), and each quadrant's weight, its share of the node's energy in
-/// units of `1 / WEIGHT_SUM`, fixed when the tree is built by [`QuadTree::refined`].
+/// One node as sampling and the density read it, in 16 bytes (half the 32 it took
+/// with `u32` children and `f32` factors, for memory: it did not make descents
+/// faster, see the README): its quadrants' children (`x ≥ ½` is bit 0 of a
+/// quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being nobody's
+/// child; a tree has at most [`max_nodes`](QuadTree::max_nodes) nodes, so 16 bits
+/// index them), and each quadrant's weight, its share of the node's energy in units
+/// of `1 / WEIGHT_SUM`, fixed when the tree is built by [`QuadTree::refined`].
 /// The weights sum to `WEIGHT_SUM`, a power of two, so a quadrant's density factor
 /// `4 · weight / WEIGHT_SUM` is exact in `f32`, and sampling's choices (ratios of
 /// the same weights) draw each quadrant with the probability the density gives it.
@@ -424,7 +424,6 @@ impl QuadTree {
             let right = choose_second(&mut u.x, share(f[0] + f[2], f[1] + f[3]));
             let (bottom_f, top_f) = if right { (f[1], f[3]) } else { (f[0], f[2]) };
             let top = choose_second(&mut u.y, share(bottom_f, top_f));
-            u = u.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
             let q = usize::from(right) | usize::from(top) << 1;
             size *= 0.5;
             origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;

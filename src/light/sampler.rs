@@ -563,7 +563,6 @@ impl LightSampler {
     fn choose_sky_or_emitter(&self, rng: &mut Rng) -> (SkyOrEmitter, f32) {
         let (mut u1, u2) = rng.pair();
         let emitter = choose_second(&mut u1, self.sky_probability);
-        let u1 = u1.min(ONE_BELOW);
         let choice = if emitter {
             SkyOrEmitter::Emitter(u1)
         } else {
@@ -669,7 +668,6 @@ impl LightSampler {
         let sky = self.sky.as_ref()?;
         let mut u1 = u1;
         let from_sky = choose_second(&mut u1, share);
-        let u1 = u1.min(ONE_BELOW);
         if !from_sky {
             let (dir, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             return Some(SkyDraw {

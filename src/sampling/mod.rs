@@ -17,16 +17,17 @@ use std::f32::consts::PI;
 pub const ONE_BELOW: f32 = 1.0 - f32::EPSILON / 2.0;
 
 /// Whether the uniform `u` chooses the second of two parts, the first having
-/// probability `p_first`; `u` is rescaled to a uniform within the part chosen (not
-/// clamped: see [`ONE_BELOW`]), so one number both chooses and draws.
+/// probability `p_first`; `u` is rescaled to a uniform within the part chosen, at
+/// most [`ONE_BELOW`], so one number both chooses and draws.
 #[inline]
 pub fn choose_second(u: &mut f32, p_first: f32) -> bool {
     let second = *u >= p_first;
-    *u = if second {
+    let rescaled = if second {
         (*u - p_first) / (1.0 - p_first)
     } else {
         *u / p_first
     };
+    *u = rescaled.min(ONE_BELOW);
     second
 }
 
