@@ -29,7 +29,7 @@ use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
 use crate::color::luminance;
-use crate::sampling::{cosine_hemisphere, Onb, ONE_BELOW};
+use crate::sampling::{choose_second, cosine_hemisphere, Onb};
 
 /// Below this roughness a GGX conductor is treated as a perfect mirror (a delta lobe):
 /// its lobe is narrower than anything sampling could resolve.
@@ -168,12 +168,13 @@ impl Bsdf {
                 ..
             } => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
-                let wi_local = if u.x < glossy_probability {
-                    let u = Vec2::new(u.x / glossy_probability, u.y);
-                    reflect(wo_local, ggx.sample_visible_normal(wo_local, u))
+                // One uniform chooses the lobe and, stretched back, draws within it.
+                let mut u1 = u.x;
+                let wi_local = if choose_second(&mut u1, glossy_probability) {
+                    cosine_hemisphere(u1, u.y)
                 } else {
-                    let u1 = (u.x - glossy_probability) / (1.0 - glossy_probability);
-                    cosine_hemisphere(u1.min(ONE_BELOW), u.y)
+                    let normal = ggx.sample_visible_normal(wo_local, Vec2::new(u1, u.y));
+                    reflect(wo_local, normal)
                 };
                 let wi = self.world(wi_local, flip);
                 let (value, pdf) = self.eval_pdf(wo, wi);
