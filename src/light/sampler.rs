@@ -660,15 +660,13 @@ impl LightSampler {
     /// distribution, `u1` and `u2` uniform in `[0, 1)`.
     fn draw_guided_sky(
         &self,
-        (u1, u2): (f32, f32),
+        (mut u1, u2): (f32, f32),
         share: f32,
         guide: &impl SkyGuide,
         rng: &mut Rng,
     ) -> Option<SkyDraw> {
         let sky = self.sky.as_ref()?;
-        let mut u1 = u1;
-        let from_sky = choose_second(&mut u1, share);
-        if !from_sky {
+        if !choose_second(&mut u1, share) {
             let (dir, guide_pdf) = guide.sample_with_pdf(Vec2::new(u1, u2));
             return Some(SkyDraw {
                 dir,
