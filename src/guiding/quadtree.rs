@@ -15,7 +15,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
-use crate::sampling::{choose_second, ONE_BELOW};
+use crate::sampling::ONE_BELOW;
 
 /// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
 /// `2^-20` of the square's side, where `f32` sampling coordinates still resolve them.
@@ -137,15 +137,10 @@ fn quadrant(p: Vec2) -> (usize, Vec2) {
     (q, local.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)))
 }
 
-/// The probability of the first of two parts of weights `a` and `b` (even when both
-/// are empty, which only rounding could lead to).
+/// The largest `f32` below the positive `x`.
 #[inline]
-fn share(a: f32, b: f32) -> f32 {
-    if a + b > 0.0 {
-        a / (a + b)
-    } else {
-        0.5
-    }
+fn below(x: f32) -> f32 {
+    f32::from_bits(x.to_bits() - 1)
 }
 
 /// The square's coordinates of a unit direction.
@@ -411,28 +406,56 @@ impl QuadTree {
     /// [`sample_square`](Self::sample_square), and the leaf cell it chose (whose
     /// density is the product of the factors on the way down, in the order
     /// [`square_pdf`](Self::square_pdf) multiplies them).
+    ///
+    /// Why the arithmetic below rather than two calls to `choose_second` a level:
+    /// the choices are coin flips a branch predictor cannot learn, and with branches
+    /// each level paid for about one misprediction and two chained divisions (the
+    /// descent was a sixth of a guided room's time). Here a level compares the
+    /// uniforms, scaled by the weights' sums, with the weights themselves (a node's
+    /// weights sum to `WEIGHT_SUM`, so the column's choice needs no quotient), picks
+    /// the row's weights by index and each uniform's part by multiplying by 0 or 1,
+    /// and rescales both uniforms with one vector division that the next level's node
+    /// load does not wait for. All the sums are of integers below 2^16, exact in `f32`.
     #[inline]
     pub fn sample_cell(&self, mut u: Vec2) -> (Vec2, SquareCell) {
+        const SUM: f32 = WEIGHT_SUM as f32;
         let (mut origin, mut size) = (Vec2::ZERO, 1.0f32);
         let mut density = 1.0f32;
         let mut node = 0usize;
         loop {
             let n = self.nodes[node];
-            // The weights, exact in `f32`, as are their sums: each choice's
-            // probability is their ratio, as the density's factors are.
             let f = n.weight.map(f32::from);
-            let right = choose_second(&mut u.x, share(f[0] + f[2], f[1] + f[3]));
-            let (bottom_f, top_f) = if right { (f[1], f[3]) } else { (f[0], f[2]) };
-            let top = choose_second(&mut u.y, share(bottom_f, top_f));
-            let q = usize::from(right) | usize::from(top) << 1;
+            // The left column holds quadrants 0 and 2: `left` of `SUM`.
+            let left = f[0] + f[2];
+            let scaled_x = u.x * SUM;
+            let right = scaled_x >= left;
+            let column = usize::from(right);
+            let (bottom, top_weight) = (f[column], f[column + 2]);
+            let scaled_y = u.y * (bottom + top_weight);
+            // A `u.y` below 1 can still round up to `bottom` when the top is empty.
+            let top = scaled_y >= bottom && top_weight > 0.0;
+            let (r, t) = (f32::from(u8::from(right)), f32::from(u8::from(top)));
+            // Each uniform within its part: (scaled − part's start) / part's weight.
+            let start = Vec2::new(r * left, t * bottom);
+            let weight = Vec2::new(
+                left + r * (SUM - 2.0 * left),
+                bottom + t * (top_weight - bottom),
+            );
+            u = ((Vec2::new(scaled_x, scaled_y) - start) / weight).min(Vec2::splat(ONE_BELOW));
+            let q = column | usize::from(top) << 1;
             size *= 0.5;
-            origin += Vec2::new(f32::from(u8::from(right)), f32::from(u8::from(top))) * size;
+            origin += Vec2::new(r, t) * size;
             density *= n.factor(q);
             if let c @ 1.. = n.child[q] {
                 node = c as usize;
                 continue;
             }
-            let p = (origin + u * size).clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW));
+            // Within the cell: at depth 20 a cell is 64 `f32` steps wide, and
+            // `origin + u · size` rounded to its upper edge for about one `u` in 128,
+            // a point of the neighbouring cell, whose density (0 where the neighbour
+            // has no light) is not the one the draw was made with.
+            let top_corner = origin + Vec2::splat(size);
+            let p = (origin + u * size).min(Vec2::new(below(top_corner.x), below(top_corner.y)));
             let cell = SquareCell {
                 origin,
                 size,
@@ -699,6 +722,47 @@ mod tests {
         }
         assert_eq!(weights([0.0; 4]), EMPTY_NODE.weight);
         assert_eq!(weights([f64::INFINITY, 1.0, 0.0, 0.0]), EMPTY_NODE.weight);
+    }
+
+    /// Draws never land where the density is 0, even from uniforms at the ends of
+    /// `[0, 1)` and next to a choice's boundary (where rounding could tip a choice
+    /// into an empty quadrant), and a draw lies in the cell it reports, whose density
+    /// is the one `square_pdf` finds there: a tree whose light comes from two points
+    /// only, refined to depth 20, so most nodes have empty quadrants, some a whole
+    /// empty column or row. (Until 2026-12-03 a draw at a cell's upper edge could
+    /// round into its neighbour, of density 0 here: `(0, 0.49999997)` did.)
+    #[test]
+    fn draws_never_land_where_the_density_is_zero() {
+        let mut tree = QuadTree::uniform();
+        let lights = [Vec2::new(0.3, 0.7), Vec2::new(0.30001, 0.2)];
+        for _ in 0..8 {
+            let mut filling = tree.cleared();
+            for &light in &lights {
+                filling.deposit(square_to_direction(light), 1.0);
+            }
+            tree = filling.refined();
+        }
+        assert_eq!(tree.depth(), MAX_QUAD_DEPTH);
+        let ends = [
+            0.0,
+            1e-7,
+            0.25,
+            0.5 - 3e-8,
+            0.5,
+            0.5 + 3e-8,
+            0.75,
+            ONE_BELOW,
+        ];
+        let mut rng = crate::sampling::Rng::seeded(3);
+        let random = (0..2000).map(|_| rng.pair());
+        let at_ends = ends.iter().flat_map(|&a| ends.iter().map(move |&b| (a, b)));
+        for (u1, u2) in at_ends.chain(random) {
+            let (p, cell) = tree.sample_cell(Vec2::new(u1, u2));
+            let density = tree.square_pdf(p);
+            assert!(cell.contains(p), "({u1}, {u2}) → {p}, outside {cell:?}");
+            assert!(density > 0.0, "({u1}, {u2}) → {p}: density 0");
+            assert_eq!(cell.density, density, "({u1}, {u2}) → {p}");
+        }
     }
 
     #[test]
