@@ -438,6 +438,80 @@ fn patchy_sky() -> Environment {
     Environment::new(width, height, texels, 1.0, 20.0)
 }
 
+/// The prefetch of a light sample's sky texel replays the sample's own draw: where
+/// `sky_uniforms_ahead` predicts a draw from the sky's own distribution, the light
+/// sample (unguided, and guided with a share of 0.5) is that draw's direction, and
+/// where it predicts none the sample is an emitter's or the guide's. A prefetch of
+/// the wrong texel would change no image, only lose the time it saves, so this is
+/// what keeps it from drifting out of step with the samplers unnoticed.
+#[test]
+fn sky_prefetch_replays_the_light_samples_draw() {
+    let floor = quad(
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        0,
+    );
+    // Facing down, at the floor.
+    let lamp = quad(
+        Vec3::new(-0.2, 1.0, -0.2),
+        Vec3::new(0.2, 1.0, -0.2),
+        Vec3::new(0.2, 1.0, 0.2),
+        Vec3::new(-0.2, 1.0, 0.2),
+        1,
+    );
+    let materials = vec![
+        diffuse(Vec3::splat(0.5), Vec3::ZERO),
+        diffuse(Vec3::ZERO, Vec3::splat(5.0)),
+    ];
+    let built = build(&[floor, lamp].concat(), materials);
+    let scene = &built.scene;
+    let sky = Arc::new(patchy_sky());
+    let lights = LightSampler::new(&scene.mesh, &scene.materials, &scene.textures)
+        .with_sky(Some(sky.clone()), 2.0);
+    assert!(lights.sky_probability() > 0.0 && lights.sky_probability() < 1.0);
+    let tree = trained_tree();
+    let at = Receiver {
+        p: Vec3::new(0.1, 0.01, 0.2),
+        n: Vec3::Y,
+    };
+    let guide = VertexGuide::new(&tree, Vec3::Y, 0.5, 0.5);
+    let (mut predicted, mut not_predicted) = (0, 0);
+    for i in 0..4000 {
+        let rng = Rng::for_sample(7, i, 3);
+        let share = (i % 2 == 1).then_some(guide.sky_share());
+        let ahead = lights.sky_uniforms_ahead(&rng, share);
+        let mut drawing = Rng::for_sample(7, i, 3);
+        let (dir, emitter) = match share {
+            None => match lights.sample(at, &mut drawing) {
+                Some(light) => (light.dir, light.point.is_some()),
+                None => continue,
+            },
+            Some(share) => match lights.draw_with_sky_guide(at, &mut drawing, share, &guide) {
+                Some(drawn) => (drawn.dir(), drawn.point().is_some()),
+                None => continue,
+            },
+        };
+        match ahead {
+            Some((u_row, u_column)) => {
+                predicted += 1;
+                let own = sky
+                    .sample(u_row, u_column)
+                    .expect("a draw of the sky's own");
+                assert!(!emitter, "sample {i}: an emitter's, predicted the sky's");
+                assert_eq!(dir, own.dir, "sample {i}, share {share:?}");
+            }
+            None => not_predicted += 1,
+        }
+    }
+    // Both outcomes occur: the test compares draws, and skips none of them.
+    assert!(
+        predicted > 1000 && not_predicted > 1000,
+        "{predicted} / {not_predicted}"
+    );
+}
+
 /// Where the sky is chosen, a light sample's direction comes from the mixture of the
 /// sky's own sampling and a guide (trained and folded onto a hemisphere): for several
 /// shares, that density integrates to 1 over the sphere, the draws follow it

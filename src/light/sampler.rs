@@ -515,6 +515,41 @@ impl LightSampler {
         }
     }
 
+    /// A hint with no effect on any result: where the next light sample drawn from
+    /// `rng` would draw from the sky's own distribution, starts loading the texel it
+    /// reads first ([`Environment::prefetch`]). `guide_share` is as for
+    /// [`sky_uniforms_ahead`](Self::sky_uniforms_ahead).
+    #[inline]
+    pub fn prefetch_sky_sample(&self, rng: &Rng, guide_share: Option<f32>) {
+        if let (Some(sky), Some((u_row, u_column))) =
+            (self.sky.as_ref(), self.sky_uniforms_ahead(rng, guide_share))
+        {
+            sky.prefetch(u_row, u_column);
+        }
+    }
+
+    /// The uniforms with which the next light sample drawn from `rng` would draw from
+    /// the sky's own distribution ([`Environment::sample`]), replayed on a copy of
+    /// `rng`: for a sample of [`draw_with_sky_guide`](Self::draw_with_sky_guide) with
+    /// the share `guide_share`, or of [`sample`](Self::sample) for `None`. `None`
+    /// where that sample would pick an emitter or the guide, and where the next
+    /// draws are stratified (copying would compute their set twice).
+    #[inline]
+    pub fn sky_uniforms_ahead(&self, rng: &Rng, guide_share: Option<f32>) -> Option<(f64, f64)> {
+        if self.sky.is_none() || rng.stratified_ahead() {
+            return None;
+        }
+        let mut ahead = rng.clone();
+        let (SkyOrEmitter::Sky(mut u1), u2) = self.choose_sky_or_emitter(&mut ahead) else {
+            return None;
+        };
+        // As `draw_guided_sky` chooses between the guide and the sky.
+        if guide_share.is_some_and(|share| !choose_second(&mut u1, share)) {
+            return None;
+        }
+        Some((ahead.refine(u1), ahead.refine(u2)))
+    }
+
     /// [`sample`](Self::sample), except that where the sky is chosen, its direction
     /// comes with probability `share` from `guide` (directions learnt elsewhere, e.g.
     /// where the sky is seen from `at`) and otherwise from the sky's own distribution:

@@ -111,9 +111,7 @@ impl AliasTable {
 /// random low bits ([`Rng::refine`](super::Rng::refine)).
 #[inline]
 pub fn alias_draw(n: usize, u: f64, entry: impl Fn(usize) -> AliasEntry) -> (usize, f32) {
-    let scaled = u * n as f64;
-    let column = (scaled as usize).min(n - 1);
-    let fraction = (scaled - column as f64) as f32;
+    let (column, fraction) = alias_bin(n, u);
     let AliasEntry { keep, alias } = entry(column);
     let (outcome, rest) = if fraction < keep {
         (column, fraction / keep)
@@ -121,6 +119,15 @@ pub fn alias_draw(n: usize, u: f64, entry: impl Fn(usize) -> AliasEntry) -> (usi
         (alias as usize, (fraction - keep) / (1.0 - keep))
     };
     (outcome, rest.clamp(0.0, ONE_BELOW))
+}
+
+/// The bin of [`alias_draw`]'s first step, whose entry it reads, and the fraction of
+/// `u` within it.
+#[inline]
+pub fn alias_bin(n: usize, u: f64) -> (usize, f32) {
+    let scaled = u * n as f64;
+    let column = (scaled as usize).min(n - 1);
+    (column, (scaled - column as f64) as f32)
 }
 
 #[cfg(test)]

@@ -5,7 +5,7 @@ mod distribution;
 mod onb;
 mod rng;
 
-pub use distribution::{alias_draw, AliasEntry, AliasTable};
+pub use distribution::{alias_bin, alias_draw, AliasEntry, AliasTable};
 pub use onb::Onb;
 pub use rng::{mix64, Rng};
 

@@ -27,6 +27,7 @@ const SOBOL_POINTS: u64 = 1 << 16;
 
 /// The random stream of one camera sample. Every (seed, pixel, sample) triple gets its
 /// own stream, so an image does not depend on how pixels are spread over threads.
+#[derive(Clone)]
 pub struct Rng {
     pcg: Pcg32,
     /// Stratified values not yet used, `strata[next..4]`.
@@ -98,6 +99,13 @@ impl Rng {
             self.set_end = self.set;
         }
         self.next = 4;
+    }
+
+    /// Whether the next draw comes from the stratified sets (the camera's and the
+    /// first vertex's), rather than the independent stream of later vertices.
+    #[inline]
+    pub fn stratified_ahead(&self) -> bool {
+        self.next < 4 || self.set < self.set_end
     }
 
     /// Uniform in `[0, 1)`, a multiple of 2^-23.

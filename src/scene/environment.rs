@@ -29,7 +29,7 @@ use std::path::Path;
 use super::SceneError;
 use crate::color::luminance;
 use crate::image::Image;
-use crate::sampling::{alias_draw, AliasEntry, AliasTable};
+use crate::sampling::{alias_bin, alias_draw, AliasEntry, AliasTable};
 
 /// A radiance map at infinity with its sampling distribution.
 #[derive(Clone, Debug)]
@@ -244,6 +244,24 @@ impl Environment {
         })
     }
 
+    /// A hint with no effect on any result: starts loading the texel that
+    /// [`sample`](Self::sample) reads first for these uniforms (its column's alias
+    /// entry), so that the load overlaps other work. The texels of a sky map are tens
+    /// of megabytes, and that load was otherwise a miss to memory on nearly every light
+    /// sample: 70% of `sample`'s time and a fifth of an unguided room's.
+    #[inline]
+    pub fn prefetch(&self, u_row: f64, u_column: f64) {
+        let Some(rows) = self.rows.as_ref() else {
+            return;
+        };
+        let (row, _) = rows.sample(u_row);
+        let width = self.width as usize;
+        let (column, _) = alias_bin(width, u_column);
+        if let Some(texel) = self.texels.get(row * width + column) {
+            prefetch_line(texel);
+        }
+    }
+
     /// `(u, v)` in [0, 1]² of a unit world direction.
     #[inline]
     fn map_coordinates(&self, dir: Vec3) -> Vec2 {
@@ -291,6 +309,15 @@ impl Environment {
                     .flat_map(|t| t.radiance.to_array().map(f32::to_bits)),
             )
     }
+}
+
+/// Asks the caches for the line holding `value` (a hint; nothing on other targets).
+#[inline(always)]
+fn prefetch_line<T>(value: &T) {
+    #[cfg(target_arch = "x86_64")]
+    safe_arch::prefetch_t0(value);
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = value;
 }
 
 #[cfg(test)]
