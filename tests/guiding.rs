@@ -423,6 +423,17 @@ fn a_region_guides_only_where_it_pays() {
     }
 }
 
+/// The square `[-1, 1]²` at `y = 0`, of material 0: the floor under the sky tests.
+fn floor_quad() -> [([Vec3; 3], u32); 2] {
+    quad(
+        Vec3::new(-1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, -1.0),
+        Vec3::new(1.0, 0.0, 1.0),
+        Vec3::new(-1.0, 0.0, 1.0),
+        0,
+    )
+}
+
 /// A sky with a gradient and a bright patch (the sky's own sampling prefers it).
 fn patchy_sky() -> Environment {
     let (width, height) = (32, 16);
@@ -446,13 +457,7 @@ fn patchy_sky() -> Environment {
 /// what keeps it from drifting out of step with the samplers unnoticed.
 #[test]
 fn sky_prefetch_replays_the_light_samples_draw() {
-    let floor = quad(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        0,
-    );
+    let floor = floor_quad();
     // Facing down, at the floor.
     let lamp = quad(
         Vec3::new(-0.2, 1.0, -0.2),
@@ -519,13 +524,7 @@ fn sky_prefetch_replays_the_light_samples_draw() {
 /// and the guide's density along it.
 #[test]
 fn sky_samples_mixed_with_a_guide_follow_their_density() {
-    let floor = quad(
-        Vec3::new(-1.0, 0.0, -1.0),
-        Vec3::new(1.0, 0.0, -1.0),
-        Vec3::new(1.0, 0.0, 1.0),
-        Vec3::new(-1.0, 0.0, 1.0),
-        0,
-    );
+    let floor = floor_quad();
     let built = build(&floor, vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)]);
     let sky = Arc::new(patchy_sky());
     let scene = &built.scene;
