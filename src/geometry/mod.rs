@@ -144,7 +144,7 @@ pub const SHADOW_EPSILON: f32 = 1e-4;
 /// `x` moved one ulp further in the direction of `offset`'s sign (unchanged for 0),
 /// as `f32::next_up`/`next_down` do (not used: they need Rust 1.86).
 #[inline]
-fn round_away(x: f32, offset: f32) -> f32 {
+pub(crate) fn round_away(x: f32, offset: f32) -> f32 {
     if offset == 0.0 || !x.is_finite() {
         return x;
     }

@@ -15,6 +15,7 @@ use std::f32::consts::{FRAC_1_PI, PI};
 
 use glam::{Vec2, Vec3};
 
+use crate::geometry::round_away;
 use crate::sampling::ONE_BELOW;
 
 /// Quadtrees are never deeper than this (Müller et al. 2017 use 20): cells down to
@@ -135,12 +136,6 @@ fn quadrant(p: Vec2) -> (usize, Vec2) {
         if top { p.y - 0.5 } else { p.y },
     ) * 2.0;
     (q, local.clamp(Vec2::ZERO, Vec2::splat(ONE_BELOW)))
-}
-
-/// The largest `f32` below the positive `x`.
-#[inline]
-fn below(x: f32) -> f32 {
-    f32::from_bits(x.to_bits() - 1)
 }
 
 /// The square's coordinates of a unit direction.
@@ -455,6 +450,7 @@ impl QuadTree {
             // a point of the neighbouring cell, whose density (0 where the neighbour
             // has no light) is not the one the draw was made with.
             let top_corner = origin + Vec2::splat(size);
+            let below = |edge: f32| round_away(edge, -1.0);
             let p = (origin + u * size).min(Vec2::new(below(top_corner.x), below(top_corner.y)));
             let cell = SquareCell {
                 origin,
