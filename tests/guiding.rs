@@ -484,9 +484,8 @@ fn sky_prefetch_replays_the_light_samples_draw() {
     let guide = VertexGuide::new(&tree, Vec3::Y, 0.5, 0.5);
     let (mut predicted, mut not_predicted) = (0, 0);
     for i in 0..4000 {
-        let rng = Rng::for_sample(7, i, 3);
         let share = (i % 2 == 1).then_some(guide.sky_share());
-        let ahead = lights.sky_uniforms_ahead(&rng, share);
+        let ahead = lights.sky_uniforms_ahead(Rng::for_sample(7, i, 3), share);
         let mut drawing = Rng::for_sample(7, i, 3);
         let (dir, emitter) = match share {
             None => match lights.sample(at, &mut drawing) {

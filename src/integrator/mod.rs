@@ -319,8 +319,9 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 break;
             };
             rng.start_vertex(segment);
-            if GUIDED {
-                self.prefetch_sky_texel(rng, Some(ray.at(current.t)));
+            if GUIDED && self.prefetches_sky() {
+                let share = self.guide.map(|tree| tree.sky_share_at(ray.at(current.t)));
+                self.lights.prefetch_sky_sample(rng.clone(), share);
             }
             let surface = self.scene.surface(&current);
             let emitted = throughput * self.emission(&surface, &current, ray.dir, emission_weight);
@@ -412,10 +413,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             hit = match step.traced {
                 Some(next) => next,
                 None => {
-                    if !GUIDED {
+                    if !GUIDED && self.prefetches_sky() {
                         let mut next_vertex = rng.clone();
                         next_vertex.start_vertex(segment + 1);
-                        self.prefetch_sky_texel(&next_vertex, None);
+                        self.lights.prefetch_sky_sample(next_vertex, None);
                     }
                     self.trace(&ray, count)
                 }
@@ -426,26 +427,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         out
     }
 
-    /// Asks the caches for the sky texel that the light sample `rng` draws next
-    /// would read first (a hint, with no effect on any result). That texel is nearly
-    /// always a miss to memory (a sky map's texels are tens of megabytes), a fifth of
-    /// an unguided room's time. An unguided path asks before tracing the ray to the
-    /// vertex (`rng` then the next vertex's stream), so that the load overlaps the
-    /// traversal; a guided vertex's draw depends on its region's sky share, so it
-    /// asks once the hit point `guided_at` is known and the load overlaps the
-    /// surface's shading (the surface's own point can lie in the next region; the
-    /// hint is then of another texel).
+    /// Whether light samples are drawn from a sky, whose texel the path loop then
+    /// asks the caches for ahead ([`LightSampler::prefetch_sky_sample`], a hint with
+    /// no effect on any result). That texel is nearly always a miss to memory (a sky
+    /// map's texels are tens of megabytes), a fifth of an unguided room's time. An
+    /// unguided path asks before tracing the ray to a vertex, replaying that vertex's
+    /// stream, so that the load overlaps the traversal; a guided vertex's draw depends
+    /// on its region's sky share, so it asks once the ray has hit (at the hit point:
+    /// the surface's own point can lie in the next region, and the hint is then of
+    /// another texel), and the load overlaps the surface's shading.
     #[inline(always)]
-    fn prefetch_sky_texel(&self, rng: &Rng, guided_at: Option<Vec3>) {
-        let draws_light = matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
-        if !draws_light || self.lights.sky_probability() == 0.0 {
-            return;
-        }
-        let share = match (self.guide, guided_at) {
-            (Some(tree), Some(p)) => Some(tree.sky_share_at(p)),
-            _ => None,
-        };
-        self.lights.prefetch_sky_sample(rng, share);
+    fn prefetches_sky(&self) -> bool {
+        matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis)
+            && self.lights.sky_probability() > 0.0
     }
 
     /// Emission of the surface at `hit` towards a ray travelling along `dir`, weighted

@@ -516,30 +516,35 @@ impl LightSampler {
     }
 
     /// A hint with no effect on any result: where the next light sample drawn from
-    /// `rng` would draw from the sky's own distribution, starts loading the texel it
+    /// `stream` would draw from the sky's own distribution, starts loading the texel it
     /// reads first ([`Environment::prefetch`]). `guide_share` is as for
     /// [`sky_uniforms_ahead`](Self::sky_uniforms_ahead).
     #[inline]
-    pub fn prefetch_sky_sample(&self, rng: &Rng, guide_share: Option<f32>) {
-        if let (Some(sky), Some((u_row, u_column))) =
-            (self.sky.as_ref(), self.sky_uniforms_ahead(rng, guide_share))
-        {
+    pub fn prefetch_sky_sample(&self, stream: Rng, guide_share: Option<f32>) {
+        if let (Some(sky), Some((u_row, u_column))) = (
+            self.sky.as_ref(),
+            self.sky_uniforms_ahead(stream, guide_share),
+        ) {
             sky.prefetch(u_row, u_column);
         }
     }
 
-    /// The uniforms with which the next light sample drawn from `rng` would draw from
-    /// the sky's own distribution ([`Environment::sample`]), replayed on a copy of
-    /// `rng`: for a sample of [`draw_with_sky_guide`](Self::draw_with_sky_guide) with
-    /// the share `guide_share`, or of [`sample`](Self::sample) for `None`. `None`
-    /// where that sample would pick an emitter or the guide, and where the next
-    /// draws are stratified (copying would compute their set twice).
+    /// The uniforms with which the next light sample drawn from `stream` (a copy of
+    /// a path's stream, replayed here) would draw from the sky's own distribution
+    /// ([`Environment::sample`]): for a sample of
+    /// [`draw_with_sky_guide`](Self::draw_with_sky_guide) with the share
+    /// `guide_share`, or of [`sample`](Self::sample) for `None`. `None` where that
+    /// sample would pick an emitter or the guide, and where the next draws are
+    /// stratified (the copy would compute their set a second time).
     #[inline]
-    pub fn sky_uniforms_ahead(&self, rng: &Rng, guide_share: Option<f32>) -> Option<(f64, f64)> {
-        if self.sky.is_none() || rng.stratified_ahead() {
+    pub fn sky_uniforms_ahead(
+        &self,
+        mut ahead: Rng,
+        guide_share: Option<f32>,
+    ) -> Option<(f64, f64)> {
+        if self.sky.is_none() || ahead.stratified_ahead() {
             return None;
         }
-        let mut ahead = rng.clone();
         let (SkyOrEmitter::Sky(mut u1), u2) = self.choose_sky_or_emitter(&mut ahead) else {
             return None;
         };
