@@ -974,6 +974,74 @@ fn training_samples_in_the_image_find_the_furnace_radiance() {
     }
 }
 
+/// Adjoint-driven roulette (`ember::integrator`'s `roulette`) keeps a guided render
+/// unbiased and does cut paths: in the closed furnace above (albedo 0.4, so that a
+/// path's expectation falls below a sixth of its pixel's after a bounce or two), the
+/// paths after training find `Le · Σ_{k<N} a^k`, and trace fewer rays than the
+/// unguided paths of the same pixels, which at depth 6 play no roulette at all.
+#[test]
+fn adjoint_roulette_finds_the_furnace_radiance_with_fewer_rays() {
+    let albedo = 0.4f32;
+    let le = Vec3::new(1.0, 0.5, 0.25);
+    let built = build(&inward_cube(4, 0), vec![diffuse(Vec3::splat(albedo), le)]);
+    let settings = guided_settings(16, 15, 4);
+    assert!(settings.max_depth <= ember::integrator::ROULETTE_START_VERTEX);
+    let tree = train(&built, &settings);
+    let new_tracer = || {
+        PathTracer::new(
+            &built.scene,
+            &built.accel,
+            settings.max_depth,
+            IntegratorKind::Mis,
+        )
+    };
+    let (unguided, guided) = (new_tracer(), new_tracer().with_guide(Some(&tree)));
+    let camera = inside_camera(16);
+    let (mut unguided_rays, mut guided_rays) = (RayCount::default(), RayCount::default());
+    let (mut sum, mut sum_sq, mut n) = (DVec3::ZERO, DVec3::ZERO, 0.0);
+    for pixel in 0..256u64 {
+        for s in 0..64 {
+            let (x, y) = ((pixel % 16) as f32, (pixel / 16) as f32);
+            let start = || {
+                let mut rng = Rng::for_pixel_sample(5, pixel, s);
+                let (dx, dy) = rng.pair();
+                (camera.ray(x + dx, y + dy), rng)
+            };
+            let (ray, mut rng) = start();
+            unguided.sample(ray, &mut rng, &mut unguided_rays);
+            let (ray, mut rng) = start();
+            let l = guided.sample(ray, &mut rng, &mut guided_rays).radiance;
+            let l = l.as_dvec3();
+            (sum, sum_sq, n) = (sum + l, sum_sq + l * l, n + 1.0);
+        }
+    }
+    let truth: f64 = (0..settings.max_depth)
+        .map(|k| f64::from(albedo).powi(k as i32))
+        .sum();
+    let truth = le.as_dvec3() * truth;
+    let mean = sum / n;
+    let sigma = ((sum_sq / n - mean * mean).max(DVec3::ZERO) / n).powf(0.5);
+    eprintln!(
+        "furnace with adjoint roulette: {mean} ± {sigma}, expected {truth}; rays {} against {}",
+        guided_rays.rays, unguided_rays.rays
+    );
+    for c in 0..3 {
+        assert!(
+            (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
+            "channel {c}: {} ± {}, expected {}",
+            mean[c],
+            sigma[c],
+            truth[c]
+        );
+    }
+    assert!(
+        (guided_rays.rays as f64) < 0.9 * unguided_rays.rays as f64,
+        "roulette cut no paths: {} rays against {}",
+        guided_rays.rays,
+        unguided_rays.rays
+    );
+}
+
 /// Guiding is part of a render's identity (checkpoints and shards of another setting
 /// are refused), and unguided renders keep the identity they had before guiding.
 #[test]

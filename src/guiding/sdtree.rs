@@ -251,6 +251,9 @@ pub struct SdTree {
     /// [`Leaf`] spans four cache lines: every vertex reads them, to know whether its
     /// region guides at all.
     shares: Vec<[f32; 2]>,
+    /// Each leaf's estimate of the light arriving at a point in it, `∫ L dω` over
+    /// the sphere (see [`incident_estimate`]); 0 where nothing was learnt.
+    incident: Vec<f32>,
 }
 
 impl SdTree {
@@ -268,6 +271,7 @@ impl SdTree {
             leaves: vec![Leaf::fresh(QuadTree::uniform())],
             // The untrained region is not drawn from (see [`GUIDE_PROBABILITY`]).
             shares: vec![[0.0, 0.0]],
+            incident: vec![0.0],
         }
     }
 
@@ -332,6 +336,7 @@ impl SdTree {
         let leaf = self.leaf_of(p);
         let [selection, sky_share] = self.shares[leaf];
         VertexGuide::new(&self.leaves[leaf].directions, normal, selection, sky_share)
+            .with_incident(self.incident[leaf])
     }
 
     /// The selection probability of the region of `p`.
@@ -342,6 +347,11 @@ impl SdTree {
     /// The share of guided sky samples of the region of `p`.
     pub fn sky_share_at(&self, p: Vec3) -> f32 {
         self.shares[self.leaf_of(p)][1]
+    }
+
+    /// The estimate of `∫ L dω` at `p` its region learnt (see [`incident_estimate`]).
+    pub fn incident_at(&self, p: Vec3) -> f32 {
+        self.incident[self.leaf_of(p)]
     }
 
     /// Adds a record: `value` (incident radiance over the density of its direction)
@@ -438,6 +448,7 @@ impl SdTree {
         self.nodes.capacity() * std::mem::size_of::<SpatialNode>()
             + self.table.capacity() * std::mem::size_of::<TableCell>()
             + self.shares.capacity() * std::mem::size_of::<[f32; 2]>()
+            + self.incident.capacity() * std::mem::size_of::<f32>()
             + self.leaves.capacity() * std::mem::size_of::<Leaf>()
             + self
                 .leaves
@@ -459,6 +470,7 @@ impl SdTree {
                 .map(|leaf| Leaf::fresh(leaf.directions.cleared()))
                 .collect(),
             shares: self.shares.clone(),
+            incident: self.incident.clone(),
         }
     }
 
@@ -485,6 +497,9 @@ impl SdTree {
     /// half as many samples; judged by that one, which concentrates less light, the
     /// moments were biased against guiding, and `sd-tree 7` left regions unguided
     /// that its better guide would have paid in (GlossyMix lost most: see the README).
+    ///
+    /// Each leaf also keeps its records' [`incident_estimate`], for adjoint-driven
+    /// roulette (see `crate::integrator`).
     pub fn refined(&self, spp: u32, pixels: u64, draws: &[GuidedDraw]) -> SdTree {
         let threshold = split_threshold(spp, pixels);
         let mut nodes = self.nodes.clone();
@@ -512,6 +527,10 @@ impl SdTree {
             }
             node += 1;
         }
+        let incident = source
+            .iter()
+            .map(|&s| incident_estimate(&self.leaves[s]))
+            .collect();
         let leaves: Vec<Leaf> = source
             .par_iter()
             .map(|&s| Leaf::fresh(self.leaves[s].directions.refined()))
@@ -523,6 +542,7 @@ impl SdTree {
             nodes,
             shares: vec![[0.0; 2]; leaves.len()],
             leaves,
+            incident,
         };
         tree.learn_shares(draws);
         tree
@@ -546,6 +566,24 @@ impl SdTree {
                 learnt_shares(&leaf.directions, own)
             })
             .collect();
+    }
+}
+
+/// Records a path vertex leaves in training: the direction it scattered into and its
+/// light sample (see [`crate::guiding::PathRecorder`]).
+pub const RECORDS_PER_VERTEX: f64 = 2.0;
+
+/// A leaf's estimate of `∫ L dω`, the light arriving at a point in it from the whole
+/// sphere: the sum of the values deposited in it (each an estimate of incident
+/// radiance over the density of its direction) per vertex that recorded in it, taking
+/// [`RECORDS_PER_VERTEX`] records a vertex. Rough by design: the values of
+/// neighbouring regions are spread into it by the spatial filter, light samples that
+/// found an emitter hidden leave no record, and a vertex near the end of a path may
+/// leave one; it only steers roulette, which stays unbiased whatever it says.
+fn incident_estimate(leaf: &Leaf) -> f32 {
+    match leaf.records {
+        0 => 0.0,
+        n => (RECORDS_PER_VERTEX * leaf.directions.energy() / n as f64) as f32,
     }
 }
 

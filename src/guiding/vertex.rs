@@ -29,6 +29,9 @@ pub struct VertexGuide<'a> {
     /// Probability of drawing a sky sample from the guide rather than the sky's own
     /// distribution.
     sky_share: f32,
+    /// The region's estimate of `∫ L dω`, the light arriving from the whole sphere
+    /// (see [`SdTree::incident_at`](super::SdTree::incident_at)).
+    incident: f32,
 }
 
 impl<'a> VertexGuide<'a> {
@@ -42,7 +45,21 @@ impl<'a> VertexGuide<'a> {
             normal,
             selection,
             sky_share,
+            incident: 0.0,
         }
+    }
+
+    /// This guide, its region's estimate of `∫ L dω` being `incident`.
+    #[inline]
+    pub fn with_incident(mut self, incident: f32) -> Self {
+        self.incident = incident;
+        self
+    }
+
+    /// The region's estimate of `∫ L dω` (0 where it learnt none).
+    #[inline]
+    pub fn incident(&self) -> f32 {
+        self.incident
     }
 
     /// The probability of drawing the direction from the guide.

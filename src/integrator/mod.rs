@@ -45,6 +45,10 @@ use crate::light::{
 use crate::sampling::{choose_second, Rng};
 use crate::scene::{Scene, SurfacePoint};
 
+mod roulette;
+use roulette::{expected_from, AdjointRoulette};
+pub use roulette::{DIM_RATIO, DIM_SURVIVAL};
+
 /// Which light-transport estimator `ember render` uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum IntegratorKind {
@@ -303,6 +307,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         // radiance scaling, which says how much the path carries for Russian roulette.
         let mut eta_scale = 1.0f32;
         let mut emission_weight = EmissionWeight::Full;
+        let mut roulette = AdjointRoulette::default();
         let mut hit = self.trace(&ray, count);
         out.depth = hit.map_or(0.0, |h| h.t);
         for segment in 1..=self.max_depth {
@@ -343,9 +348,18 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let next_event = !bsdf.is_delta()
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
+            // Adjoint-driven roulette's survival probability (1 where it plays none),
+            // where the guide has anything to go by; training's paths, and vertices
+            // without, play the ordinary roulette.
+            let mut adjoint_survival = None;
             let guide = match self.guide {
                 Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
                     let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
+                    if !R::RECORDS {
+                        let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
+                        let found = radiance.dot(Vec3::splat(1.0 / 3.0));
+                        adjoint_survival = roulette.survival(found, expected);
+                    }
                     // Training measures every region's draws, used or not.
                     (R::RECORDS || guide.guides()).then_some(guide)
                 }
@@ -372,8 +386,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             // it chooses where the path goes: the emission that choice aims at (the
             // mixture's light half) is then counted before a small weight could end the
             // path, which would make fireflies.
-            if segment >= ROULETTE_START_VERTEX {
-                let survive = (throughput * eta_scale).max_element().min(0.95);
+            let survive = match adjoint_survival {
+                Some(survive) => survive,
+                None if segment >= ROULETTE_START_VERTEX => {
+                    (throughput * eta_scale).max_element().min(0.95)
+                }
+                None => 1.0,
+            };
+            if survive < 1.0 || survive.is_nan() {
                 if rng.f32() >= survive || survive.is_nan() {
                     break;
                 }
