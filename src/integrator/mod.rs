@@ -30,7 +30,8 @@
 //!
 //! At delta vertices (mirrors, smooth glass) every estimator follows the BSDF's sample,
 //! and the emission found next counts in full. Russian roulette may end any path from
-//! vertex [`ROULETTE_START_VERTEX`] on.
+//! vertex [`ROULETTE_START_VERTEX`] on; a guided path's non-delta vertices play
+//! adjoint-driven roulette instead, where the guide has learnt any light (`roulette`).
 
 use glam::{Vec2, Vec3};
 
@@ -349,17 +350,15 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
             // Adjoint-driven roulette's survival probability (1 where it plays none),
-            // where the guide has anything to go by; training's paths, and vertices
-            // without, play the ordinary roulette.
+            // where the guide has anything to go by (not the untrained one of
+            // training's first iteration); elsewhere the ordinary roulette plays.
             let mut adjoint_survival = None;
             let guide = match self.guide {
                 Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
                     let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
-                    if !R::RECORDS {
-                        let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
-                        let found = radiance.dot(Vec3::splat(1.0 / 3.0));
-                        adjoint_survival = roulette.survival(found, expected);
-                    }
+                    let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
+                    let found = radiance.dot(Vec3::splat(1.0 / 3.0));
+                    adjoint_survival = roulette.survival(found, expected);
                     // Training measures every region's draws, used or not.
                     (R::RECORDS || guide.guides()).then_some(guide)
                 }
