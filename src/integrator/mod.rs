@@ -48,7 +48,7 @@ use crate::scene::{Scene, SurfacePoint};
 
 mod roulette;
 use roulette::{expected_from, AdjointRoulette};
-pub use roulette::{DIM_RATIO, DIM_SURVIVAL};
+pub use roulette::{DIM_RATIO, DIM_SURVIVAL, MAX_HALVINGS};
 
 /// Which light-transport estimator `ember render` uses.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
