@@ -283,6 +283,45 @@ fn filled_towards(lobe: Vec3) -> SdTree {
     tree
 }
 
+/// A region's estimate of the light arriving at it (what adjoint-driven roulette goes
+/// by) is `∫ L dω`: vertices at random points of the region, each recording the
+/// radiance `L(ω) = 3·max(0, ω_y)` along a uniform direction over its density `1/4π`
+/// and a light sample that found nothing, give `3π` (`∫ max(0, ω_y) dω = π`), in every
+/// region the refinement splits it into; an untrained tree knows nothing.
+#[test]
+fn a_region_learns_the_light_arriving_at_it() {
+    let mut tree = SdTree::new((Vec3::splat(-1.0), Vec3::splat(1.0)));
+    assert_eq!(tree.incident_at(Vec3::ZERO), 0.0);
+    tree = tree.cleared();
+    let mut rng = Rng::seeded(4);
+    let vertices = 200_000;
+    for _ in 0..vertices {
+        let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 2.0 - Vec3::ONE;
+        let (u1, u2) = rng.pair();
+        let dir = uniform_sphere(u1, u2);
+        let value = 3.0 * dir.y.max(0.0) * 4.0 * PI;
+        tree.deposit(&Record { p, dir, value });
+        let light = uniform_sphere(rng.f32(), rng.f32());
+        tree.deposit(&Record {
+            p,
+            dir: light,
+            value: 0.0,
+        });
+    }
+    assert_eq!(ember::guiding::RECORDS_PER_VERTEX, 2.0);
+    // At the split threshold of 1 spp over a few pixels, the region splits.
+    let refined = tree.refined(1, 16, &[]);
+    assert!(refined.leaf_count() > 8, "{} regions", refined.leaf_count());
+    for p in [Vec3::ZERO, Vec3::splat(0.7), Vec3::new(-0.9, 0.3, -0.5)] {
+        let estimate = refined.incident_at(p);
+        assert!(
+            (estimate - 3.0 * PI).abs() < 0.02 * 3.0 * PI,
+            "at {p}: {estimate}, expected {}",
+            3.0 * PI
+        );
+    }
+}
+
 /// A base density that varies at random between draws: 0.1 to 2.1 times the
 /// uniform density on the hemisphere, 1 in the mean.
 fn random_base(u: f32) -> f32 {
