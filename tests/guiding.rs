@@ -13,7 +13,7 @@ use std::sync::Arc;
 
 use common::stats::{check_density, chi_square, Binning, Density};
 use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
-use ember::accel::AccelKind;
+use ember::accel::{AccelKind, Ray};
 use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, GuidedDraw,
@@ -631,15 +631,9 @@ fn a_guided_path_drawing_nothing_from_the_guide_is_the_unguided_one() {
     let mut lit = 0;
     for pixel in 0..256u64 {
         for s in 0..8 {
-            let (x, y) = ((pixel % 16) as f32, (pixel / 16) as f32);
-            let start = || {
-                let mut rng = Rng::for_pixel_sample(7, pixel, s);
-                let (dx, dy) = rng.pair();
-                (camera.ray(x + dx, y + dy), rng)
-            };
-            let (ray, mut rng) = start();
+            let (ray, mut rng) = camera_sample(&camera, 7, pixel, s);
             let plain = unguided.sample(ray, &mut rng, &mut count).radiance;
-            let (ray, mut rng) = start();
+            let (ray, mut rng) = camera_sample(&camera, 7, pixel, s);
             let mut recorder = PathRecords::new(&mut records, &mut draws, 1.0);
             let measured = guided.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
             assert_eq!(measured.radiance, plain, "pixel {pixel}, sample {s}");
@@ -992,25 +986,63 @@ fn training_samples_in_the_image_find_the_furnace_radiance() {
         None,
     );
     assert!(film.pixels.iter().all(|p| p.done == 15 && p.kept == 15));
-    let truth: f64 = (0..settings.max_depth)
+    let sums = SampleSums {
+        sum: film.pixels.iter().map(|p| p.radiance).sum(),
+        sum_sq: film.pixels.iter().map(|p| p.radiance_sq).sum(),
+        n: film.total_done() as f64,
+    };
+    let truth = furnace_radiance(le, albedo, settings.max_depth);
+    sums.assert_mean("guided furnace at 15 training spp", truth);
+}
+
+/// The radiance along every ray in a closed furnace whose surfaces emit `le` and
+/// reflect with albedo `albedo`, for paths of at most `max_depth` segments.
+fn furnace_radiance(le: Vec3, albedo: f32, max_depth: u32) -> DVec3 {
+    let terms: f64 = (0..max_depth)
         .map(|k| f64::from(albedo).powi(k as i32))
         .sum();
-    let truth = le.as_dvec3() * truth;
-    let n = film.total_done() as f64;
-    let sum: DVec3 = film.pixels.iter().map(|p| p.radiance).sum();
-    let sum_sq: DVec3 = film.pixels.iter().map(|p| p.radiance_sq).sum();
-    let mean = sum / n;
-    let sigma = ((sum_sq / n - mean * mean).max(DVec3::ZERO) / n).powf(0.5);
-    eprintln!("guided furnace at 15 training spp: {mean} ± {sigma}, expected {truth}");
-    for c in 0..3 {
-        assert!(
-            (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
-            "channel {c}: {} ± {}, expected {}",
-            mean[c],
-            sigma[c],
-            truth[c]
-        );
+    le.as_dvec3() * terms
+}
+
+/// Sums of samples of a radiance, and their count.
+#[derive(Default)]
+struct SampleSums {
+    sum: DVec3,
+    sum_sq: DVec3,
+    n: f64,
+}
+
+impl SampleSums {
+    fn add(&mut self, l: Vec3) {
+        let l = l.as_dvec3();
+        (self.sum, self.sum_sq, self.n) = (self.sum + l, self.sum_sq + l * l, self.n + 1.0);
     }
+
+    /// Asserts that the samples' mean is `truth` within four standard errors, in
+    /// every channel.
+    fn assert_mean(&self, label: &str, truth: DVec3) {
+        let mean = self.sum / self.n;
+        let sigma = ((self.sum_sq / self.n - mean * mean).max(DVec3::ZERO) / self.n).powf(0.5);
+        eprintln!("{label}: {mean} ± {sigma}, expected {truth}");
+        for c in 0..3 {
+            assert!(
+                (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
+                "{label}, channel {c}: {} ± {}, expected {}",
+                mean[c],
+                sigma[c],
+                truth[c]
+            );
+        }
+    }
+}
+
+/// Camera sample `s` of `pixel` (row-major) of a 16×16 `camera` under `seed`: its ray,
+/// and its stream after the camera's draws.
+fn camera_sample(camera: &Camera, seed: u64, pixel: u64, s: u64) -> (Ray, Rng) {
+    let (x, y) = ((pixel % 16) as f32, (pixel / 16) as f32);
+    let mut rng = Rng::for_pixel_sample(seed, pixel, s);
+    let (dx, dy) = rng.pair();
+    (camera.ray(x + dx, y + dy), rng)
 }
 
 /// Adjoint-driven roulette (`ember::integrator`'s `roulette`) keeps a guided render
@@ -1037,47 +1069,22 @@ fn adjoint_roulette_finds_the_furnace_radiance_with_fewer_rays() {
     let (unguided, guided) = (new_tracer(), new_tracer().with_guide(Some(&tree)));
     let camera = inside_camera(16);
     let (mut unguided_rays, mut guided_rays) = (RayCount::default(), RayCount::default());
-    let (mut sum, mut sum_sq, mut n) = (DVec3::ZERO, DVec3::ZERO, 0.0);
+    let mut sums = SampleSums::default();
     for pixel in 0..256u64 {
         for s in 0..64 {
-            let (x, y) = ((pixel % 16) as f32, (pixel / 16) as f32);
-            let start = || {
-                let mut rng = Rng::for_pixel_sample(5, pixel, s);
-                let (dx, dy) = rng.pair();
-                (camera.ray(x + dx, y + dy), rng)
-            };
-            let (ray, mut rng) = start();
+            let (ray, mut rng) = camera_sample(&camera, 5, pixel, s);
             unguided.sample(ray, &mut rng, &mut unguided_rays);
-            let (ray, mut rng) = start();
-            let l = guided.sample(ray, &mut rng, &mut guided_rays).radiance;
-            let l = l.as_dvec3();
-            (sum, sum_sq, n) = (sum + l, sum_sq + l * l, n + 1.0);
+            let (ray, mut rng) = camera_sample(&camera, 5, pixel, s);
+            sums.add(guided.sample(ray, &mut rng, &mut guided_rays).radiance);
         }
     }
-    let truth: f64 = (0..settings.max_depth)
-        .map(|k| f64::from(albedo).powi(k as i32))
-        .sum();
-    let truth = le.as_dvec3() * truth;
-    let mean = sum / n;
-    let sigma = ((sum_sq / n - mean * mean).max(DVec3::ZERO) / n).powf(0.5);
-    eprintln!(
-        "furnace with adjoint roulette: {mean} ± {sigma}, expected {truth}; rays {} against {}",
-        guided_rays.rays, unguided_rays.rays
-    );
-    for c in 0..3 {
-        assert!(
-            (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
-            "channel {c}: {} ± {}, expected {}",
-            mean[c],
-            sigma[c],
-            truth[c]
-        );
-    }
+    let truth = furnace_radiance(le, albedo, settings.max_depth);
+    sums.assert_mean("furnace with adjoint roulette", truth);
+    let (guided_rays, unguided_rays) = (guided_rays.rays, unguided_rays.rays);
+    eprintln!("rays: {guided_rays} guided against {unguided_rays} unguided");
     assert!(
-        (guided_rays.rays as f64) < 0.9 * unguided_rays.rays as f64,
-        "roulette cut no paths: {} rays against {}",
-        guided_rays.rays,
-        unguided_rays.rays
+        (guided_rays as f64) < 0.9 * unguided_rays as f64,
+        "roulette cut no paths: {guided_rays} rays against {unguided_rays}"
     );
 }
 
