@@ -2,6 +2,13 @@
 
 use glam::Vec3;
 
+/// The mean of the three channels: what the guide learns from and adjoint-driven
+/// roulette weighs, where every channel counts alike.
+#[inline]
+pub fn channel_mean(c: Vec3) -> f32 {
+    (c.x + c.y + c.z) / 3.0
+}
+
 /// Perceived brightness of linear RGB (Rec. 709 weights).
 #[inline]
 pub fn luminance(c: Vec3) -> f32 {

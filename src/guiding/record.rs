@@ -6,6 +6,7 @@
 
 use glam::Vec3;
 
+use crate::color::channel_mean;
 use crate::sampling::mix64;
 
 /// The most vertices of one path whose incident radiance is tracked; deeper ones are
@@ -64,7 +65,7 @@ impl MixtureDraw {
     /// The draw of a direction whose integrand is `integrand` (per colour channel).
     pub fn new(integrand: Vec3, base_pdf: f32, guide_scale: f32, pdf: f32, normal: Vec3) -> Self {
         MixtureDraw {
-            integrand: mean(integrand),
+            integrand: channel_mean(integrand),
             base_pdf,
             guide_scale,
             pdf,
@@ -183,10 +184,6 @@ impl<'o> PathRecords<'o> {
     }
 }
 
-fn mean(v: Vec3) -> f32 {
-    (v.x + v.y + v.z) / 3.0
-}
-
 impl PathRecorder for PathRecords<'_> {
     const RECORDS: bool = true;
     fn scattered(
@@ -226,7 +223,7 @@ impl PathRecorder for PathRecords<'_> {
         incident_over_pdf: Vec3,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     ) {
-        let value = mean(incident_over_pdf);
+        let value = channel_mean(incident_over_pdf);
         if value.is_finite() {
             self.records.push(Record { p, dir, value });
             if let Some(m) = sky() {
@@ -238,7 +235,7 @@ impl PathRecorder for PathRecords<'_> {
     fn finish(&mut self) {
         for i in 0..self.len {
             let v = self.open[i];
-            let value = mean(v.radiance) / v.pdf;
+            let value = channel_mean(v.radiance) / v.pdf;
             if value.is_finite() {
                 self.records.push(Record {
                     p: v.p,

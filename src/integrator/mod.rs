@@ -37,6 +37,7 @@ use glam::{Vec2, Vec3};
 
 use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
+use crate::color::channel_mean;
 use crate::film::Sample;
 use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{
@@ -357,8 +358,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
                     let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
                     let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
-                    let found = radiance.dot(Vec3::splat(1.0 / 3.0));
-                    adjoint_survival = roulette.survival(found, expected);
+                    adjoint_survival = roulette.survival(channel_mean(radiance), expected);
                     // Training measures every region's draws, used or not.
                     (R::RECORDS || guide.guides()).then_some(guide)
                 }

@@ -42,6 +42,8 @@
 //! weight, at most 16 branches a camera sample) lowered the room's product by 4–5%,
 //! and the staircase's and the Original's not at all, for a path loop that recurses.
 
+use crate::color::channel_mean;
+
 /// The ratio of a path's expected contribution from a vertex on to its pixel's
 /// estimate below which roulette is played.
 pub const DIM_RATIO: f32 = 1.0 / 6.0;
@@ -99,9 +101,7 @@ impl AdjointRoulette {
 /// `albedo · (incident / 2π)`, times the throughput.
 #[inline]
 pub fn expected_from(throughput: glam::Vec3, albedo: glam::Vec3, incident: f32) -> f32 {
-    (throughput * albedo).dot(glam::Vec3::splat(1.0 / 3.0))
-        * incident
-        * (0.5 * std::f32::consts::FRAC_1_PI)
+    channel_mean(throughput * albedo) * incident * (0.5 * std::f32::consts::FRAC_1_PI)
 }
 
 #[cfg(test)]
