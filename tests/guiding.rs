@@ -11,7 +11,7 @@ use std::process::{Command, Output};
 use std::sync::atomic::AtomicUsize;
 use std::sync::Arc;
 
-use common::stats::{check_density, chi_square, Binning, Density};
+use common::stats::{check_density, chi_square, furnace_radiance, Binning, Density, SampleSums};
 use common::{build, diffuse, inward_cube, quad, render_stopping, Built};
 use ember::accel::{AccelKind, Ray};
 use ember::film::Film;
@@ -27,7 +27,7 @@ use ember::light::{LightSampler, Receiver};
 use ember::render::{guide_view, identity, render, train_guide, Adaptive, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings, Environment};
-use glam::{DVec3, Vec2, Vec3};
+use glam::{Vec2, Vec3};
 
 /// The untrained guide is the uniform density on the sphere, `1/4π`, and its draws
 /// follow it.
@@ -993,47 +993,6 @@ fn training_samples_in_the_image_find_the_furnace_radiance() {
     };
     let truth = furnace_radiance(le, albedo, settings.max_depth);
     sums.assert_mean("guided furnace at 15 training spp", truth);
-}
-
-/// The radiance along every ray in a closed furnace whose surfaces emit `le` and
-/// reflect with albedo `albedo`, for paths of at most `max_depth` segments.
-fn furnace_radiance(le: Vec3, albedo: f32, max_depth: u32) -> DVec3 {
-    let terms: f64 = (0..max_depth)
-        .map(|k| f64::from(albedo).powi(k as i32))
-        .sum();
-    le.as_dvec3() * terms
-}
-
-/// Sums of samples of a radiance, and their count.
-#[derive(Default)]
-struct SampleSums {
-    sum: DVec3,
-    sum_sq: DVec3,
-    n: f64,
-}
-
-impl SampleSums {
-    fn add(&mut self, l: Vec3) {
-        let l = l.as_dvec3();
-        (self.sum, self.sum_sq, self.n) = (self.sum + l, self.sum_sq + l * l, self.n + 1.0);
-    }
-
-    /// Asserts that the samples' mean is `truth` within four standard errors, in
-    /// every channel.
-    fn assert_mean(&self, label: &str, truth: DVec3) {
-        let mean = self.sum / self.n;
-        let sigma = ((self.sum_sq / self.n - mean * mean).max(DVec3::ZERO) / self.n).powf(0.5);
-        eprintln!("{label}: {mean} ± {sigma}, expected {truth}");
-        for c in 0..3 {
-            assert!(
-                (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
-                "{label}, channel {c}: {} ± {}, expected {}",
-                mean[c],
-                sigma[c],
-                truth[c]
-            );
-        }
-    }
 }
 
 /// Camera sample `s` of `pixel` (row-major) of a 16×16 `camera` under `seed`: its ray,

@@ -7,6 +7,7 @@ mod common;
 
 use std::path::{Path, PathBuf};
 
+use common::stats::{furnace_radiance, SampleSums};
 use common::{build, diffuse, inward_cube, with_embree, Built};
 use ember::accel::{Accel, Ray};
 use ember::guiding::Guiding;
@@ -30,22 +31,16 @@ const ALL: [IntegratorKind; 4] = [
     IntegratorKind::Mis,
 ];
 
-/// Mean radiance and its standard error over `n` random rays from `origin`.
-fn mean_radiance<A: Accel>(tracer: &PathTracer<'_, A>, origin: Vec3, n: u64) -> (DVec3, DVec3) {
-    let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+/// The sums of the radiance along `n` random rays from `origin`.
+fn radiance_sums<A: Accel>(tracer: &PathTracer<'_, A>, origin: Vec3, n: u64) -> SampleSums {
+    let mut sums = SampleSums::default();
     let mut count = RayCount::default();
     for i in 0..n {
         let mut rng = Rng::for_sample(99, 0, i);
         let dir = uniform_sphere(rng.f32(), rng.f32());
-        let l = tracer
-            .radiance(Ray::new(origin, dir), &mut rng, &mut count)
-            .as_dvec3();
-        sum += l;
-        sum2 += l * l;
+        sums.add(tracer.radiance(Ray::new(origin, dir), &mut rng, &mut count));
     }
-    let mean = sum / n as f64;
-    let var = (sum2 / n as f64 - mean * mean).max(DVec3::ZERO);
-    (mean, (var / n as f64).powf(0.5))
+    sums
 }
 
 /// Inside a closed room where every surface has albedo `a` and emits `Le`, the
@@ -62,22 +57,10 @@ fn furnace_every_integrator_finds_the_geometric_series() {
         );
         for kind in ALL {
             for max_depth in [1, 2, 5, 40] {
-                let truth: f64 = (0..max_depth)
-                    .map(|k| f64::from(albedo).powi(k as i32))
-                    .sum();
-                let truth = le.as_dvec3() * truth;
                 let tracer = PathTracer::new(&built.scene, &built.accel, max_depth, kind);
-                let (mean, sigma) = mean_radiance(&tracer, Vec3::new(0.1, -0.3, 0.2), 20_000);
-                for c in 0..3 {
-                    let tolerance = 4.0 * sigma[c] + 1e-4 * truth[c];
-                    assert!(
-                        (mean[c] - truth[c]).abs() <= tolerance,
-                        "{kind:?}, {cells}² cells, depth {max_depth}: channel {c} = {} ± {}, expected {}",
-                        mean[c],
-                        sigma[c],
-                        truth[c]
-                    );
-                }
+                let sums = radiance_sums(&tracer, Vec3::new(0.1, -0.3, 0.2), 20_000);
+                let label = format!("{kind:?}, {cells}² cells, depth {max_depth}");
+                sums.assert_mean(&label, furnace_radiance(le, albedo, max_depth));
             }
         }
     }
@@ -104,19 +87,12 @@ fn furnace_with_mirrors() {
     let built = build(&tris, vec![diffuse(Vec3::splat(albedo), le), mirror]);
     for kind in ALL {
         let max_depth = 6;
-        let truth: f64 = (0..max_depth).map(|k| f64::from(albedo).powi(k)).sum();
-        let truth = le.as_dvec3() * truth;
-        let tracer = PathTracer::new(&built.scene, &built.accel, max_depth as u32, kind);
-        let (mean, sigma) = mean_radiance(&tracer, Vec3::new(-0.2, 0.1, 0.3), 20_000);
-        for c in 0..3 {
-            assert!(
-                (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
-                "{kind:?}: channel {c} = {} ± {}, expected {}",
-                mean[c],
-                sigma[c],
-                truth[c]
-            );
-        }
+        let tracer = PathTracer::new(&built.scene, &built.accel, max_depth, kind);
+        let sums = radiance_sums(&tracer, Vec3::new(-0.2, 0.1, 0.3), 20_000);
+        sums.assert_mean(
+            &format!("{kind:?}"),
+            furnace_radiance(le, albedo, max_depth),
+        );
     }
 }
 
@@ -130,7 +106,7 @@ fn no_lights_no_light() {
     );
     for kind in ALL {
         let tracer = PathTracer::new(&built.scene, &built.accel, 8, kind);
-        let (mean, _) = mean_radiance(&tracer, Vec3::ZERO, 1000);
+        let (mean, _) = radiance_sums(&tracer, Vec3::ZERO, 1000).mean_and_error();
         assert_eq!(mean, DVec3::ZERO, "{kind:?}");
     }
 }
@@ -551,7 +527,7 @@ fn uniform_sky_over_a_diffuse_triangle() {
     for kind in ALL {
         let tracer = PathTracer::new(&built.scene, &built.accel, 8, kind);
         let mut count = RayCount::default();
-        let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+        let mut sums = SampleSums::default();
         let n = 20_000;
         for i in 0..n {
             let mut rng = Rng::for_sample(5, 1, i);
@@ -561,12 +537,9 @@ fn uniform_sky_over_a_diffuse_triangle() {
             let origin = Vec3::new(0.0, from, 0.0);
             let target = Vec3::new(0.2 * rng.f32() - 0.1, 0.0, 0.2 * rng.f32() - 0.1);
             let ray = Ray::new(origin, (target - origin).normalize());
-            let l = tracer.radiance(ray, &mut rng, &mut count).as_dvec3();
-            sum += l;
-            sum2 += l * l;
+            sums.add(tracer.radiance(ray, &mut rng, &mut count));
         }
-        let mean = sum / n as f64;
-        let err = ((sum2 / n as f64 - mean * mean).max(DVec3::ZERO) / n as f64).powf(0.5);
+        let (mean, err) = sums.mean_and_error();
         let want = (albedo * sky).as_dvec3();
         assert!(
             ((mean - want).abs() - 4.0 * err - DVec3::splat(1e-6)).max_element() <= 0.0,
@@ -634,15 +607,12 @@ fn convex_objects_under_a_white_sky_are_never_brighter_than_it() {
                 let ray = Ray::new(from, (to - from).normalize());
                 let mut count = RayCount::default();
                 let n = 20_000u64;
-                let (mut sum, mut sum2) = (DVec3::ZERO, DVec3::ZERO);
+                let mut sums = SampleSums::default();
                 for s in 0..n {
                     let mut rng = Rng::for_sample(11, i as u64, s);
-                    let l = tracer.radiance(ray, &mut rng, &mut count).as_dvec3();
-                    sum += l;
-                    sum2 += l * l;
+                    sums.add(tracer.radiance(ray, &mut rng, &mut count));
                 }
-                let mean = sum / n as f64;
-                let sigma = ((sum2 / n as f64 - mean * mean).max(DVec3::ZERO) / n as f64).powf(0.5);
+                let (mean, sigma) = sums.mean_and_error();
                 let bound = 4.0 * sigma.max_element() + 1e-5;
                 assert!(
                     mean.max_element() <= 1.0 + bound,

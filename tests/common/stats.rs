@@ -4,7 +4,7 @@
 use std::f64::consts::PI;
 
 use ember::sampling::{Onb, Rng};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// Mean and standard error of `n` draws of `f`.
 pub fn monte_carlo(n: usize, mut f: impl FnMut() -> f64) -> (f64, f64) {
@@ -178,4 +178,51 @@ pub fn check_density(
         "{name}: {void} void draws, expected {}",
         n as f64 * p_void
     );
+}
+
+/// The radiance along every ray in a closed furnace whose surfaces emit `le` and
+/// reflect with albedo `albedo`, for paths of at most `max_depth` segments.
+pub fn furnace_radiance(le: Vec3, albedo: f32, max_depth: u32) -> DVec3 {
+    let terms: f64 = (0..max_depth)
+        .map(|k| f64::from(albedo).powi(k as i32))
+        .sum();
+    le.as_dvec3() * terms
+}
+
+/// Sums of samples of a radiance, and their count.
+#[derive(Default)]
+pub struct SampleSums {
+    pub sum: DVec3,
+    pub sum_sq: DVec3,
+    pub n: f64,
+}
+
+impl SampleSums {
+    pub fn add(&mut self, l: Vec3) {
+        let l = l.as_dvec3();
+        (self.sum, self.sum_sq, self.n) = (self.sum + l, self.sum_sq + l * l, self.n + 1.0);
+    }
+
+    /// The samples' mean and its standard error.
+    pub fn mean_and_error(&self) -> (DVec3, DVec3) {
+        let mean = self.sum / self.n;
+        let sigma = ((self.sum_sq / self.n - mean * mean).max(DVec3::ZERO) / self.n).powf(0.5);
+        (mean, sigma)
+    }
+
+    /// Asserts that the samples' mean is `truth` within four standard errors, in
+    /// every channel.
+    pub fn assert_mean(&self, label: &str, truth: DVec3) {
+        let (mean, sigma) = self.mean_and_error();
+        eprintln!("{label}: {mean} ± {sigma}, expected {truth}");
+        for c in 0..3 {
+            assert!(
+                (mean[c] - truth[c]).abs() <= 4.0 * sigma[c] + 1e-4 * truth[c],
+                "{label}, channel {c}: {} ± {}, expected {}",
+                mean[c],
+                sigma[c],
+                truth[c]
+            );
+        }
+    }
 }
