@@ -24,7 +24,9 @@ use ember::guiding::{
 use ember::image::compare;
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::light::{LightSampler, Receiver};
-use ember::render::{guide_view, identity, render, train_guide, Adaptive, RenderSettings};
+use ember::render::{
+    guide_view, identity, render, train_guide, Adaptive, GuidePicture, GuideView, RenderSettings,
+};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{Camera, CameraSettings, Environment};
 use glam::{Vec2, Vec3};
@@ -278,6 +280,7 @@ fn filled_towards(lobe: Vec3) -> SdTree {
             p: Vec3::ZERO,
             dir,
             value,
+            sky: 0.0,
         });
     }
     tree
@@ -300,12 +303,18 @@ fn a_region_learns_the_light_arriving_at_it() {
         let (u1, u2) = rng.pair();
         let dir = uniform_sphere(u1, u2);
         let value = 3.0 * dir.y.max(0.0) * 4.0 * PI;
-        tree.deposit(&Record { p, dir, value });
+        tree.deposit(&Record {
+            p,
+            dir,
+            value,
+            sky: 0.0,
+        });
         let light = uniform_sphere(rng.f32(), rng.f32());
         tree.deposit(&Record {
             p,
             dir: light,
             value: 0.0,
+            sky: 0.0,
         });
     }
     assert_eq!(ember::guiding::RECORDS_PER_VERTEX, 2.0);
@@ -769,9 +778,10 @@ fn guide_learns_the_way_to_the_light_through_a_hole() {
     }
 }
 
-/// Under a sky that only the hole lets in, the guide learns where the sky is seen from
-/// the floor: there the regions draw most sky samples from the guide, whose mixture
-/// puts far more mass through the hole than the sky's own sampling. And the guided
+/// Under a sky that only the hole lets in, the sky guide learns where the sky is seen
+/// from the floor: its mixture with the sky's own sampling puts far more mass through
+/// the hole than the sky's own sampling, and the sky guide alone more than the guide
+/// of all incident light (which also holds the light the walls reflect). And the guided
 /// render (both mixtures) converges to the unguided one: relMSE against an unguided
 /// reference falls like 1/spp.
 #[test]
@@ -786,13 +796,19 @@ fn guided_sky_samples_find_the_hole_and_stay_unbiased() {
         let half_angle = 12f32.to_radians();
         let guide = tree.guide_at(p, Vec3::Y);
         let share = guide.sky_share();
-        let mixed = |d| lights.pdf_sky_guided(d, share, guide.pdf(d));
+        let mixed = |d| lights.pdf_sky_guided(d, share, guide.sky_pdf(d));
         let guided = mass_in_cone(&mixed, axis, half_angle);
         let own = mass_in_cone(&|d| lights.pdf_sky(d), axis, half_angle);
-        let alone = mass_in_cone(&|d| guide.pdf(d), axis, half_angle);
-        eprintln!("floor at {p}: sky share {share}, mass towards the hole {guided:.3} guided, {own:.4} the sky's own, {alone:.3} the guide's");
-        //assert!(share >= 0.5, "at {p}: sky share {share}");
+        let sky_alone = mass_in_cone(&|d| guide.sky_pdf(d), axis, half_angle);
+        let all_light = mass_in_cone(&|d| guide.pdf(d), axis, half_angle);
+        eprintln!("floor at {p}: sky share {share}, mass towards the hole {guided:.3} guided, {own:.4} the sky's own, {sky_alone:.3} the sky guide's, {all_light:.3} the guide of all light");
         assert!(guided > 3.0 * own, "at {p}: {guided:.4} against {own:.4}");
+        // The sky guide learnt the sky seen directly, not the light the walls
+        // reflect, which the guide of all incident light holds too.
+        assert!(
+            sky_alone > 1.5 * all_light,
+            "at {p}: {sky_alone:.4} against {all_light:.4}"
+        );
     }
     let camera = inside_camera(24);
     let image = |spp, guiding| {
@@ -1216,14 +1232,30 @@ fn guide_image_shows_the_learnt_density() {
     }
 }
 
-/// Seen from a pixel of the floor of the box with a hole, the guide's picture puts its
-/// brightest pixels towards the hole, far above the uniform density, and integrates
-/// to 1.
-#[test]
-fn guide_view_from_a_floor_pixel_looks_at_the_hole() {
-    let built = box_with_hole();
+/// The mass of a guide's picture (of `width × height` pixels) within `half_angle` of
+/// the unit `axis`, pixels counted by their centre's direction; and its total.
+fn picture_mass(picture: &GuidePicture, axis: Vec3, half_angle: f32) -> (f64, f64) {
+    let (w, h) = (picture.width as usize, picture.height as usize);
+    let solid_angle = 4.0 * std::f64::consts::PI / (w * h) as f64;
+    let (mut within, mut total) = (0.0, 0.0);
+    for (i, &v) in picture.density.iter().enumerate() {
+        let (row, col) = (i / w, i % w);
+        let centre =
+            Vec2::new((h - 1 - row) as f32 + 0.5, col as f32 + 0.5) / Vec2::new(h as f32, w as f32);
+        let mass = f64::from(v) * solid_angle;
+        total += mass;
+        if square_to_direction(centre).dot(axis) >= half_angle.cos() {
+            within += mass;
+        }
+    }
+    (within, total)
+}
+
+/// The guide's picture at the floor pixel `(32, 60)` of the box `built` (trained at
+/// 64×64), and the unit direction from its vertex to the hole.
+fn floor_view(built: &Built) -> (GuideView, Vec3) {
     let settings = guided_settings(64, 1, 6);
-    let tree = train(&built, &settings);
+    let tree = train(built, &settings);
     let camera = inside_camera(settings.width);
     // The bottom middle of the image sees the floor.
     let view = guide_view(
@@ -1238,39 +1270,44 @@ fn guide_view_from_a_floor_pixel_looks_at_the_hole() {
     .expect("the pixel sees the floor");
     assert!(view.p.y < -0.99, "the floor, not {}", view.p);
     assert_eq!(view.normal, Vec3::Y);
-    let solid_angle = 4.0 * std::f64::consts::PI / (128.0 * 64.0);
-    let total: f64 = view
-        .density
-        .iter()
-        .map(|&v| f64::from(v) * solid_angle)
-        .sum();
-    assert!((total - 1.0).abs() < 1e-5, "∫ view = {total}");
-    // The picture's mass within 12° of the hole (pixels by their centre's direction),
-    // against the cosine density's there, as the test above does with the tree.
     let hole = (Vec3::new(0.125, 1.0, 0.125) - view.p).normalize();
+    (view, hole)
+}
+
+/// Seen from a pixel of the floor of the box with a hole, the guide's picture puts its
+/// brightest pixels towards the hole, far above the uniform density, and integrates
+/// to 1.
+#[test]
+fn guide_view_from_a_floor_pixel_looks_at_the_hole() {
+    let (view, hole) = floor_view(&box_with_hole());
+    // The picture's mass within 12° of the hole, against the cosine density's there,
+    // as the test above does with the tree.
     let half_angle = 12f32.to_radians();
-    let mut towards_hole = 0.0;
-    for (i, &v) in view.density.iter().enumerate() {
-        let (row, col) = (i / 128, i % 128);
-        let centre = Vec2::new((63 - row) as f32 + 0.5, col as f32 + 0.5) / Vec2::new(64.0, 128.0);
-        if square_to_direction(centre).dot(hole) >= half_angle.cos() {
-            towards_hole += f64::from(v) * solid_angle;
-        }
-    }
+    let (towards_hole, total) = picture_mass(&view.all_light, hole, half_angle);
+    assert!((total - 1.0).abs() < 1e-5, "∫ view = {total}");
     let cosine = cosine_mass_in_cone(Vec3::Y, hole, half_angle);
-    eprintln!(
-        "towards the hole {towards_hole:.4} (cosine {cosine:.4}), below {:.3}",
-        view.below
-    );
+    let below = view.all_light.below;
+    eprintln!("towards the hole {towards_hole:.4} (cosine {cosine:.4}), below {below:.3}");
     assert!(
         towards_hole > 2.0 * cosine,
         "{towards_hole} towards the hole"
     );
-    assert!(
-        view.below < 0.5,
-        "{} of the mass below the floor",
-        view.below
-    );
+    assert!(below < 0.5, "{below} of the mass below the floor");
+}
+
+/// Under a sky that only the hole lets in, the picture of the floor's sky guide
+/// (`--guide-sky`) integrates to 1 and puts more of its mass towards the hole than
+/// the picture of its guide of all light, which also holds the light the walls
+/// reflect.
+#[test]
+fn guide_sky_view_from_a_floor_pixel_looks_at_the_sky_through_the_hole() {
+    let (view, hole) = floor_view(&box_under_sky());
+    let half_angle = 12f32.to_radians();
+    let (sky, total) = picture_mass(&view.sky, hole, half_angle);
+    assert!((total - 1.0).abs() < 1e-5, "∫ sky view = {total}");
+    let (all_light, _) = picture_mass(&view.all_light, hole, half_angle);
+    eprintln!("towards the hole: sky guide {sky:.3}, guide of all light {all_light:.3}");
+    assert!(sky > 1.5 * all_light, "{sky:.4} against {all_light:.4}");
 }
 
 /// `--guide-image` writes the picture of the guide at a pixel; a pixel outside the
@@ -1309,13 +1346,24 @@ fn the_guide_image_flag() {
     let written = ember(&[&common[..], &["--guide-pixel", "12,20"]].concat());
     let stderr = String::from_utf8_lossy(&written.stderr);
     assert!(written.status.success(), "{stderr}");
-    let image = ember::image::Image::load(Path::new(guide)).expect("the guide image");
-    assert_eq!((image.width, image.height), (256, 128));
-    let solid_angle = 4.0 * std::f64::consts::PI / (256.0 * 128.0);
-    let total: f64 = image
-        .pixels
-        .iter()
-        .map(|p| f64::from(p.x) * solid_angle)
-        .sum();
+    let integral = || {
+        let image = ember::image::Image::load(Path::new(guide)).expect("the guide image");
+        assert_eq!((image.width, image.height), (256, 128));
+        let solid_angle = 4.0 * std::f64::consts::PI / (256.0 * 128.0);
+        let pixels = image.pixels.iter();
+        pixels.map(|p| f64::from(p.x) * solid_angle).sum::<f64>()
+    };
+    let total = integral();
     assert!((total - 1.0).abs() < 1e-4, "∫ image = {total}");
+    assert!(stderr.contains("the guide at pixel 12,20"), "{stderr}");
+    // The sky's guide of a box without a sky is the untrained, uniform one.
+    let sky = ember(&[&common[..], &["--guide-pixel", "12,20", "--guide-sky"]].concat());
+    let stderr = String::from_utf8_lossy(&sky.stderr);
+    assert!(sky.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("the sky's guide at pixel 12,20"),
+        "{stderr}"
+    );
+    let total = integral();
+    assert!((total - 1.0).abs() < 1e-4, "∫ sky image = {total}");
 }

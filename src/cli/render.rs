@@ -161,6 +161,11 @@ pub struct RenderArgs {
     /// The pixel of --guide-image, X,Y (0,0 is the top-left corner).
     #[arg(long, value_name = "X,Y", value_parser = parse_pixel, requires = "guide_image")]
     guide_pixel: Option<(u32, u32)>,
+    /// --guide-image shows the region's distribution of the sky it sees directly
+    /// (what its light samples towards the sky follow) instead of that of all the
+    /// light arriving (what its scattered directions follow).
+    #[arg(long, requires = "guide_image")]
+    guide_sky: bool,
     /// How light samples choose an emitter and a point on it: `auto` (`bvh` with at
     /// least 512 emissive triangles, else `alias`), `alias` (an alias table
     /// by power, a uniform point on the triangle), `solid-angle` (the same table, then
@@ -282,6 +287,8 @@ struct RenderPlan {
     shard: Option<(u32, u32)>,
     /// `--guide-image` and its pixel.
     guide_image: Option<(PathBuf, (u32, u32))>,
+    /// Whether `--guide-image` shows the sky's distribution (`--guide-sky`).
+    guide_sky: bool,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     samples: Range<u32>,
     /// Whether `--guiding-iterations` was given (else a resume takes the checkpoint's).
@@ -357,6 +364,7 @@ impl RenderPlan {
             time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
             guide_image: args.guide_image.zip(args.guide_pixel),
+            guide_sky: args.guide_sky,
             samples,
             guiding_iterations_given,
         }
@@ -772,7 +780,7 @@ fn finish_render<A: Accel>(
     }
     report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
     if let Some((path, pixel)) = &plan.guide_image {
-        write_guide_image(path, *pixel, view)?;
+        write_guide_image(path, *pixel, view, plan.guide_sky)?;
     }
     Ok(ExitCode::SUCCESS)
 }
@@ -781,8 +789,14 @@ fn finish_render<A: Accel>(
 /// the range of its z.
 const GUIDE_IMAGE_SIZE: (u32, u32) = (256, 128);
 
-/// Writes `--guide-image` (the density as grey) and says what it shows.
-fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -> Result<()> {
+/// Writes `--guide-image` (the density as grey; the sky's with `sky`) and says what it
+/// shows.
+fn write_guide_image(
+    path: &Path,
+    (x, y): (u32, u32),
+    view: Option<GuideView>,
+    sky: bool,
+) -> Result<()> {
     let Some(view) = view else {
         eprintln!(
             "warning: pixel {x},{y} meets no surface that scatters diffusely or glossily \
@@ -790,9 +804,13 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
         );
         return Ok(());
     };
+    let (picture, what) = match sky {
+        false => (&view.all_light, "the guide"),
+        true => (&view.sky, "the sky's guide"),
+    };
     // A PNG shows the density relative to its densest pixel (white); EXR and HDR hold
     // the density itself.
-    let densest = view.density.iter().fold(0.0f32, |a, &b| a.max(b));
+    let densest = picture.density.iter().fold(0.0f32, |a, &b| a.max(b));
     let png = image::OutputFormat::from_path(path)? == image::OutputFormat::Png;
     let scale = if png && densest > 0.0 {
         1.0 / densest
@@ -800,9 +818,9 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
         1.0
     };
     let image = image::Image {
-        width: view.width,
-        height: view.height,
-        pixels: view
+        width: picture.width,
+        height: picture.height,
+        pixels: picture
             .density
             .iter()
             .map(|&d| Vec3::splat(d * scale))
@@ -811,7 +829,7 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
     image.save(path)?;
     let (p, n) = (view.p, view.normal);
     eprintln!(
-        "wrote {}: the guide at pixel {x},{y}'s first vertex ({:.3},{:.3},{:.3}), normal \
+        "wrote {}: {what} at pixel {x},{y}'s first vertex ({:.3},{:.3},{:.3}), normal \
          ({:.2},{:.2},{:.2}): selection {:.1}, sky share {:.1}, {:.1}% of its mass below the surface, \
          densest {densest:.3} per steradian",
         path.display(),
@@ -823,7 +841,7 @@ fn write_guide_image(path: &Path, (x, y): (u32, u32), view: Option<GuideView>) -
         n.z,
         view.selection,
         view.sky_share,
-        100.0 * view.below
+        100.0 * picture.below
     );
     Ok(())
 }

@@ -21,7 +21,10 @@
 //!   density is what the path's weight divides by and what multiple importance
 //!   sampling weighs against next-event estimation. The BSDF half keeps the density
 //!   positive wherever the integrand is, so the estimate stays unbiased whatever the
-//!   guide learnt.
+//!   guide learnt. A guided vertex's sky light samples draw likewise from a mixture
+//!   of the sky's own sampling and a second quadtree of the region, of the sky it
+//!   sees directly (learnt from the sky that light samples and scattered rays found,
+//!   [`Record::sky`]), rather than of all the light arriving.
 //! - Determinism: the training uses its own fixed seeds and schedule, and every render
 //!   (fresh, resumed, or any shard of one) trains the same tree before rendering, so
 //!   guiding is a function of the scene and the settings, which the render identity

@@ -15,12 +15,20 @@ const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
 /// `value` is its estimate (mean over colour channels) over the density with which
-/// `dir` was drawn.
+/// `dir` was drawn. Where the light along `dir` came from the sky directly, `sky` is
+/// what that sky adds to the estimate at `p`, `f·cos · Le` times its MIS weight (mean
+/// over colour channels), over the same density: for a light sample that found the
+/// sky, and for a vertex whose scattered ray met it (0 for every other record). The
+/// region's sky distribution learns from these, the integrand of its sky samples:
+/// light samples and scattered rays together estimate all the sky it sees, weighed
+/// by how much of it the BSDFs there turn on along the path (the cosine, a glossy
+/// lobe).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
     pub dir: Vec3,
     pub value: f32,
+    pub sky: f32,
 }
 
 /// How a guided vertex at `p` drew the direction `dir` from a mixture with its guide:
@@ -98,14 +106,23 @@ pub trait PathRecorder {
     );
     /// The path's estimate grew by `contribution`.
     fn added(&mut self, contribution: Vec3);
+    /// The path's estimate grew by `contribution`, the sky that the ray scattered by
+    /// the last call to [`scattered`](Self::scattered) met (recorded with the
+    /// scattering's [`MixtureTerms`], whose `f·cos` the sky's record takes).
+    fn met_sky(&mut self, contribution: Vec3) {
+        self.added(contribution);
+    }
     /// A light sample at `p` along `dir` found `incident_over_pdf` (radiance times its
-    /// MIS weight, over the light sample's density); `sky` gives the draw of a sky
-    /// sample at a guided vertex (evaluated only if asked for).
+    /// MIS weight, over the light sample's density) and, if it found the sky,
+    /// `sky_integrand_over_pdf` (the same times the BSDF's `f·cos`; 0 otherwise);
+    /// `sky` gives the draw of a sky sample at a guided vertex (evaluated only if
+    /// asked for).
     fn light_sample(
         &mut self,
         p: Vec3,
         dir: Vec3,
         incident_over_pdf: Vec3,
+        sky_integrand_over_pdf: Vec3,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     );
     /// The path has ended.
@@ -130,7 +147,14 @@ impl PathRecorder for NoRecords {
     #[inline(always)]
     fn added(&mut self, _: Vec3) {}
     #[inline(always)]
-    fn light_sample(&mut self, _: Vec3, _: Vec3, _: Vec3, _: impl FnOnce() -> Option<MixtureDraw>) {
+    fn light_sample(
+        &mut self,
+        _: Vec3,
+        _: Vec3,
+        _: Vec3,
+        _: Vec3,
+        _: impl FnOnce() -> Option<MixtureDraw>,
+    ) {
     }
     #[inline(always)]
     fn finish(&mut self) {}
@@ -143,6 +167,8 @@ struct Open {
     pdf: f32,
     throughput: Vec3,
     radiance: Vec3,
+    /// Of `radiance`, the sky its own ray met.
+    sky: Vec3,
     mixture: Option<MixtureTerms>,
 }
 
@@ -157,6 +183,8 @@ pub struct PathRecords<'o> {
     keep: f32,
     /// Guided draws made, kept or not.
     drawn: u64,
+    /// Whether the last scattered direction is the last open vertex's.
+    last_open: bool,
 }
 
 impl<'o> PathRecords<'o> {
@@ -168,6 +196,7 @@ impl<'o> PathRecords<'o> {
             draws,
             keep,
             drawn: 0,
+            last_open: false,
         }
     }
 
@@ -201,18 +230,27 @@ impl PathRecorder for PathRecords<'_> {
                 pdf,
                 throughput,
                 radiance: Vec3::ZERO,
+                sky: Vec3::ZERO,
                 mixture: mixture(),
             };
             self.len += 1;
+            self.last_open = true;
+        } else {
+            self.last_open = false;
+        }
+    }
+
+    fn met_sky(&mut self, contribution: Vec3) {
+        self.added(contribution);
+        if self.last_open {
+            let v = &mut self.open[self.len - 1];
+            v.sky = per_throughput(contribution, v.throughput);
         }
     }
 
     fn added(&mut self, contribution: Vec3) {
         for v in &mut self.open[..self.len] {
-            // Where a channel's throughput is 0, so is everything it adds.
-            let t = v.throughput;
-            let safe = Vec3::select(t.cmpgt(Vec3::ZERO), t, Vec3::ONE);
-            v.radiance += Vec3::select(t.cmpgt(Vec3::ZERO), contribution / safe, Vec3::ZERO);
+            v.radiance += per_throughput(contribution, v.throughput);
         }
     }
 
@@ -221,11 +259,23 @@ impl PathRecorder for PathRecords<'_> {
         p: Vec3,
         dir: Vec3,
         incident_over_pdf: Vec3,
+        sky_integrand_over_pdf: Vec3,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     ) {
         let value = channel_mean(incident_over_pdf);
         if value.is_finite() {
-            self.records.push(Record { p, dir, value });
+            let sky_value = channel_mean(sky_integrand_over_pdf);
+            let sky_value = if sky_value.is_finite() {
+                sky_value
+            } else {
+                0.0
+            };
+            self.records.push(Record {
+                p,
+                dir,
+                value,
+                sky: sky_value,
+            });
             if let Some(m) = sky() {
                 self.draw(p, dir, Draw::Sky(m));
             }
@@ -241,6 +291,10 @@ impl PathRecorder for PathRecords<'_> {
                     p: v.p,
                     dir: v.dir,
                     value,
+                    sky: match v.mixture {
+                        Some((f, _, _)) => channel_mean(f * v.sky) / v.pdf,
+                        None => 0.0,
+                    },
                 });
                 if let Some((f, bsdf_pdf, normal)) = v.mixture {
                     let m = MixtureDraw::new(f * v.radiance, bsdf_pdf, 1.0, v.pdf, normal);
@@ -250,6 +304,13 @@ impl PathRecorder for PathRecords<'_> {
         }
         self.len = 0;
     }
+}
+
+/// What `contribution` to a path's estimate was, as radiance arriving at a vertex of
+/// throughput `t`: where a channel's throughput is 0, so is everything it adds.
+fn per_throughput(contribution: Vec3, t: Vec3) -> Vec3 {
+    let safe = Vec3::select(t.cmpgt(Vec3::ZERO), t, Vec3::ONE);
+    Vec3::select(t.cmpgt(Vec3::ZERO), contribution / safe, Vec3::ZERO)
 }
 
 /// Whether a draw at `p` along `dir` is among a share `keep` of all draws: a hash of
@@ -272,4 +333,52 @@ pub fn hash(p: Vec3, d: Vec3) -> u64 {
     let (a, b) = bits(p);
     let (c, e) = bits(d);
     mix64(a ^ mix64(c ^ mix64(u64::from(b) << 32 | u64::from(e))))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn no_terms() -> Option<MixtureTerms> {
+        None
+    }
+
+    /// A vertex's record holds all the light its ray found over the ray's density, and
+    /// its `sky` only the sky that very ray met; a light sample's record holds the sky
+    /// it found, and nothing where it found an emitter.
+    #[test]
+    fn records_keep_the_sky_each_ray_met_apart() {
+        let (mut records, mut draws) = (Vec::new(), Vec::new());
+        let mut recorder = PathRecords::new(&mut records, &mut draws, 1.0);
+        let (a, b) = (Vec3::ZERO, Vec3::X);
+        // Vertex `a` scatters with density 0.5 and meets a surface that emits 1, ...
+        recorder.scattered(a, Vec3::Y, 0.5, Vec3::ONE, no_terms);
+        recorder.added(Vec3::ONE);
+        // ... `b`, of throughput 0.25, whose light samples find an emitter (2 over
+        // their density) and the sky (4 over their density, its integrand `f·cos·Le`
+        // 2 over it); the path adds them times 0.25.
+        recorder.light_sample(b, Vec3::Z, Vec3::splat(2.0), Vec3::ZERO, || None);
+        recorder.added(Vec3::splat(0.5));
+        recorder.light_sample(b, Vec3::Y, Vec3::splat(4.0), Vec3::splat(2.0), || None);
+        recorder.added(Vec3::ONE);
+        // `b` scatters with density 0.25 and `f·cos` 0.5, and its ray meets the sky,
+        // 3 times `b`'s throughput of 0.25.
+        let terms = || Some((Vec3::splat(0.5), 0.25, Vec3::Y));
+        recorder.scattered(b, Vec3::Y, 0.25, Vec3::splat(0.25), terms);
+        recorder.met_sky(Vec3::splat(0.75));
+        recorder.finish();
+        let record = |p, dir, value, sky| Record { p, dir, value, sky };
+        assert_eq!(
+            records,
+            [
+                record(b, Vec3::Z, 2.0, 0.0),
+                record(b, Vec3::Y, 4.0, 2.0),
+                // 1 + 0.5 + 1 + 0.75 arrived along `a`'s ray, over 0.5.
+                record(a, Vec3::Y, 6.5, 0.0),
+                // 3 arrived along `b`'s ray, all of it sky (0.5 · 3 of the integrand),
+                // over 0.25.
+                record(b, Vec3::Y, 12.0, 6.0),
+            ]
+        );
+    }
 }

@@ -48,10 +48,10 @@ pub const MIN_SELECTION_DRAWS: u64 = 256;
 pub const MIN_LIT_DRAWS: u64 = 16;
 
 /// The spatial tree never has more nodes than this (so at most 2048 leaves). With each
-/// leaf's quadtree bounded by [`QuadTree::max_nodes`], the whole tree holds at most
-/// `MAX_SPATIAL_NODES · 4 + 2048 · (2001 · 48 + 136)` bytes (≈ 197 MB) while guiding
-/// a render, twice that while training (the tree being filled beside the one that
-/// guides).
+/// of a leaf's two quadtrees bounded by [`QuadTree::max_nodes`], the whole tree holds
+/// at most `MAX_SPATIAL_NODES · 4 + 2048 · (2 · 2001 · 48 + 168)` bytes (≈ 394 MB)
+/// while guiding a render, twice that while training (the tree being filled beside
+/// the one that guides). A leaf's sky quadtree is one node where it sees no sky.
 pub const MAX_SPATIAL_NODES: usize = 4095;
 
 /// Müller et al.'s `c`: after an iteration of `spp` samples per pixel over an image of
@@ -121,39 +121,58 @@ impl SpatialNode {
     }
 }
 
-/// One region of space: its directional distribution, and how many records fell in
-/// it during the iteration that filled it (the shares in use are [`SdTree`]'s).
+/// One region of space: its directional distribution of all incident light, that of
+/// the sky light it sees directly (which its sky samples follow), and how many records
+/// fell in it during the iteration that filled it (the shares in use are
+/// [`SdTree`]'s).
 #[derive(Clone, Debug, PartialEq)]
 struct Leaf {
     directions: QuadTree,
+    sky: QuadTree,
     records: u64,
 }
 
 impl Leaf {
-    /// A leaf with `directions` and no records.
-    fn fresh(directions: QuadTree) -> Leaf {
+    /// A leaf with these distributions and no records.
+    fn fresh(directions: QuadTree, sky: QuadTree) -> Leaf {
         Leaf {
             directions,
+            sky,
             records: 0,
+        }
+    }
+
+    /// Adds a record's values, spread over directions (see
+    /// [`QuadTree::deposit_filtered`]).
+    fn deposit(&mut self, dir: Vec3, value: f32, sky: f32) {
+        if positive(value) {
+            self.directions.deposit_filtered(dir, f64::from(value));
+        }
+        if positive(sky) {
+            self.sky.deposit_filtered(dir, f64::from(sky));
         }
     }
 }
 
-/// The shares that `draws`, made in a region whose (folded) guide is `directions`,
-/// choose: the probability of drawing a scattered direction from the guide rather than
+/// Whether a record's value is deposited: finite and positive.
+fn positive(value: f32) -> bool {
+    value.is_finite() && value > 0.0
+}
+
+/// The shares that `draws`, made in the region `leaf`, choose with its (folded)
+/// guides: the probability of drawing a scattered direction from the guide rather than
 /// the BSDF, of [`SELECTION_CHOICES`], and the share of sky samples drawn from the
-/// guide rather than the sky's own distribution, of [`SKY_SHARE_CHOICES`].
-fn learnt_shares<'d>(
-    directions: &QuadTree,
-    draws: impl Iterator<Item = &'d GuidedDraw>,
-) -> [f32; 2] {
+/// sky guide rather than the sky's own distribution, of [`SKY_SHARE_CHOICES`].
+fn learnt_shares<'d>(leaf: &Leaf, draws: impl Iterator<Item = &'d GuidedDraw>) -> [f32; 2] {
     let mut selection = LearntShare::<{ SELECTION_CHOICES.len() }>::new();
     let mut sky_share = LearntShare::<{ SKY_SHARE_CHOICES.len() }>::new();
     for d in draws {
-        let pdf = |m: &MixtureDraw| VertexGuide::new(directions, m.normal, 0.0, 0.0).pdf(d.dir);
+        let guide = |m: &MixtureDraw| {
+            VertexGuide::new(&leaf.directions, m.normal, 0.0, 0.0).with_sky(&leaf.sky)
+        };
         match &d.draw {
-            Draw::Scattered(m) => selection.add(m, pdf(m), &SELECTION_CHOICES),
-            Draw::Sky(m) => sky_share.add(m, pdf(m), &SKY_SHARE_CHOICES),
+            Draw::Scattered(m) => selection.add(m, guide(m).pdf(d.dir), &SELECTION_CHOICES),
+            Draw::Sky(m) => sky_share.add(m, guide(m).sky_pdf(d.dir), &SKY_SHARE_CHOICES),
         }
     }
     [
@@ -268,7 +287,7 @@ impl SdTree {
             extent: (max - min).max(Vec3::splat(1e-6)),
             table: table_of(&nodes),
             nodes,
-            leaves: vec![Leaf::fresh(QuadTree::uniform())],
+            leaves: vec![Leaf::fresh(QuadTree::uniform(), QuadTree::uniform())],
             // The untrained region is not drawn from (see [`GUIDE_PROBABILITY`]).
             shares: vec![[0.0, 0.0]],
             incident: vec![0.0],
@@ -328,6 +347,12 @@ impl SdTree {
         &self.leaves[self.leaf_of(p)].directions
     }
 
+    /// The distribution of the sky seen directly from the region of `p`.
+    #[inline]
+    pub fn sky_at(&self, p: Vec3) -> &QuadTree {
+        &self.leaves[self.leaf_of(p)].sky
+    }
+
     /// The guide of a vertex at `p` whose BSDF reflects into the side of the unit
     /// `normal`: its region's distribution folded onto that side, with its region's
     /// selection probability (see [`VertexGuide`]).
@@ -335,7 +360,11 @@ impl SdTree {
     pub fn guide_at(&self, p: Vec3, normal: Vec3) -> VertexGuide<'_> {
         let leaf = self.leaf_of(p);
         let [selection, sky_share] = self.shares[leaf];
-        VertexGuide::new(&self.leaves[leaf].directions, normal, selection, sky_share)
+        let Leaf {
+            directions, sky, ..
+        } = &self.leaves[leaf];
+        VertexGuide::new(directions, normal, selection, sky_share)
+            .with_sky(sky)
             .with_incident(self.incident[leaf])
     }
 
@@ -362,10 +391,7 @@ impl SdTree {
         let route = self.route(record);
         self.leaves[route.home as usize].records += 1;
         if let Some(target) = route.target {
-            let value = f64::from(record.value);
-            self.leaves[target as usize]
-                .directions
-                .deposit_filtered(record.dir, value);
+            self.leaves[target as usize].deposit(record.dir, record.value, record.sky);
         }
     }
 
@@ -385,15 +411,15 @@ impl SdTree {
         let deposits = tiles.iter().flatten().zip(routes.iter().flatten());
         let targets = LeafGroups::new(
             self.leaves.len(),
-            deposits.filter_map(|(r, route)| Some((route.target?, (r.dir, r.value)))),
+            deposits.filter_map(|(r, route)| Some((route.target?, (r.dir, r.value, r.sky)))),
         );
         drop(routes);
         self.leaves
             .par_iter_mut()
             .enumerate()
             .for_each(|(i, leaf)| {
-                for &(dir, value) in targets.of(i) {
-                    leaf.directions.deposit_filtered(dir, f64::from(value));
+                for &(dir, value, sky) in targets.of(i) {
+                    leaf.deposit(dir, value, sky);
                 }
             });
     }
@@ -411,8 +437,7 @@ impl SdTree {
     fn route(&self, record: &Record) -> Route {
         let x = ((record.p - self.min) / self.extent).clamp(Vec3::ZERO, Vec3::ONE);
         let (home, size) = self.leaf_and_size_at(x);
-        let value = f64::from(record.value);
-        let target = (value.is_finite() && value > 0.0).then(|| {
+        let target = (positive(record.value) || positive(record.sky)).then(|| {
             let jitter = record_jitter(record.p, record.dir) - Vec3::splat(0.5);
             let jittered = (x + jitter * size).clamp(Vec3::ZERO, Vec3::ONE);
             self.leaf_at(jittered) as u32
@@ -439,7 +464,7 @@ impl SdTree {
             + self
                 .leaves
                 .iter()
-                .map(|l| l.directions.node_count())
+                .map(|l| l.directions.node_count() + l.sky.node_count())
                 .sum::<usize>()
     }
 
@@ -453,7 +478,7 @@ impl SdTree {
             + self
                 .leaves
                 .iter()
-                .map(|l| l.directions.memory_bytes())
+                .map(|l| l.directions.memory_bytes() + l.sky.memory_bytes())
                 .sum::<usize>()
     }
 
@@ -467,7 +492,7 @@ impl SdTree {
             leaves: self
                 .leaves
                 .par_iter()
-                .map(|leaf| Leaf::fresh(leaf.directions.cleared()))
+                .map(|leaf| Leaf::fresh(leaf.directions.cleared(), leaf.sky.cleared()))
                 .collect(),
             shares: self.shares.clone(),
             incident: self.incident.clone(),
@@ -533,7 +558,10 @@ impl SdTree {
             .collect();
         let leaves: Vec<Leaf> = source
             .par_iter()
-            .map(|&s| Leaf::fresh(self.leaves[s].directions.refined()))
+            .map(|&s| {
+                let leaf = &self.leaves[s];
+                Leaf::fresh(leaf.directions.refined(), leaf.sky.refined())
+            })
             .collect();
         let mut tree = SdTree {
             min: self.min,
@@ -563,7 +591,7 @@ impl SdTree {
             .enumerate()
             .map(|(i, leaf)| {
                 let own = groups.of(i).iter().map(|&d| &draws[d as usize]);
-                learnt_shares(&leaf.directions, own)
+                learnt_shares(leaf, own)
             })
             .collect();
     }
@@ -681,7 +709,12 @@ mod tests {
                     1 => f32::INFINITY,
                     _ => rng.f32() * 3.0,
                 };
-                Record { p, dir, value }
+                Record {
+                    p,
+                    dir,
+                    value,
+                    sky: 0.0,
+                }
             })
             .collect()
     }

@@ -1,6 +1,7 @@
 //! The guide as one vertex of a path uses it: its region's directional distribution
 //! folded onto the hemisphere its BSDF reflects into, and the region's probability of
-//! drawing from the guide rather than the BSDF.
+//! drawing from the guide rather than the BSDF; likewise for sky samples, the region's
+//! distribution of the sky it sees directly and its share of sky samples.
 //!
 //! Why the fold: a region's quadtree is learnt from every surface in it, so at a point
 //! of the floor it also holds the light that arrived at a nearby wall or the sofa from
@@ -22,6 +23,9 @@ use crate::light::SkyGuide;
 #[derive(Clone, Copy, Debug)]
 pub struct VertexGuide<'a> {
     tree: &'a QuadTree,
+    /// The region's distribution of the sky light it sees directly, which its sky
+    /// samples are drawn from (see [`with_sky`](Self::with_sky)).
+    sky: &'a QuadTree,
     /// The unit normal of the side the BSDF reflects into (the side of `wo`).
     normal: Vec3,
     /// Probability of drawing from the guide rather than the BSDF.
@@ -42,11 +46,21 @@ impl<'a> VertexGuide<'a> {
     pub fn new(tree: &'a QuadTree, normal: Vec3, selection: f32, sky_share: f32) -> Self {
         VertexGuide {
             tree,
+            sky: tree,
             normal,
             selection,
             sky_share,
             incident: 0.0,
         }
+    }
+
+    /// This guide, drawing its sky samples from `sky` (folded likewise) rather than
+    /// from the distribution of all incident light: the region's sky light alone,
+    /// without the light its walls and floor reflect, which a sky sample cannot find.
+    #[inline]
+    pub fn with_sky(mut self, sky: &'a QuadTree) -> Self {
+        self.sky = sky;
+        self
     }
 
     /// This guide, its region's estimate of `∫ L dω` being `incident`.
@@ -111,7 +125,25 @@ impl<'a> VertexGuide<'a> {
     /// takes (see [`QuadTree::pdf_knowing`]).
     #[inline]
     pub fn sample_with_pdf(&self, u: Vec2) -> (Vec3, f32) {
-        let (p, cell) = self.tree.sample_cell(u);
+        self.folded_sample_with_pdf(self.tree, u)
+    }
+
+    /// Density per steradian of the folded distribution at the unit direction `d`.
+    #[inline]
+    pub fn pdf(&self, d: Vec3) -> f32 {
+        self.folded_pdf(self.tree, d)
+    }
+
+    /// Density per steradian of the folded sky distribution at the unit direction `d`
+    /// (see [`with_sky`](Self::with_sky)).
+    #[inline]
+    pub fn sky_pdf(&self, d: Vec3) -> f32 {
+        self.folded_pdf(self.sky, d)
+    }
+
+    #[inline]
+    fn folded_sample_with_pdf(&self, tree: &QuadTree, u: Vec2) -> (Vec3, f32) {
+        let (p, cell) = tree.sample_cell(u);
         let drawn = square_to_direction(p);
         let d = if drawn.dot(self.normal) < 0.0 {
             self.mirror(drawn)
@@ -121,17 +153,16 @@ impl<'a> VertexGuide<'a> {
         if d.dot(self.normal) <= 0.0 {
             return (d, 0.0);
         }
-        let pdf = self.tree.pdf_knowing(d, &cell) + self.tree.pdf_knowing(self.mirror(d), &cell);
+        let pdf = tree.pdf_knowing(d, &cell) + tree.pdf_knowing(self.mirror(d), &cell);
         (d, pdf)
     }
 
-    /// Density per steradian of the folded distribution at the unit direction `d`.
     #[inline]
-    pub fn pdf(&self, d: Vec3) -> f32 {
+    fn folded_pdf(&self, tree: &QuadTree, d: Vec3) -> f32 {
         if d.dot(self.normal) <= 0.0 {
             return 0.0;
         }
-        let (direct, mirrored) = self.tree.pdf_pair(d, self.mirror(d));
+        let (direct, mirrored) = tree.pdf_pair(d, self.mirror(d));
         direct + mirrored
     }
 
@@ -160,16 +191,17 @@ pub(super) fn draws_from_guide(selection: f32, sky_share: f32) -> bool {
     selection > 0.0 || sky_share > 0.0
 }
 
-/// Sky samples drawn where the guide learnt that light arrives: where the sky is seen
-/// from the vertex rather than hidden by walls (a room lit through its windows).
+/// Sky samples drawn where the region learnt that the sky is seen directly rather
+/// than hidden by walls (a room lit through its windows): from its sky distribution
+/// (see [`with_sky`](VertexGuide::with_sky)).
 impl SkyGuide for VertexGuide<'_> {
     #[inline]
     fn sample_with_pdf(&self, u: Vec2) -> (Vec3, f32) {
-        VertexGuide::sample_with_pdf(self, u)
+        self.folded_sample_with_pdf(self.sky, u)
     }
 
     #[inline]
     fn pdf(&self, dir: Vec3) -> f32 {
-        VertexGuide::pdf(self, dir)
+        self.sky_pdf(dir)
     }
 }

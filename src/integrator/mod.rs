@@ -133,23 +133,24 @@ impl<'t> EmissionWeight<'t> {
 }
 
 /// The guide of the vertex a ray left, as the MIS weight of the sky the ray may meet
-/// needs it: its share of sky samples and its density along the ray. The density is
-/// known where the BSDF–guide mixture needed it; where the region draws no scattered
-/// directions from its guide (a selection probability of 0: most regions of a
-/// Cornell box, and every region in training but those that guide), it is looked up
-/// only if the ray meets the sky, rather than at every vertex.
+/// needs it: its share of sky samples and its sky distribution's density along the
+/// ray, looked up only if the ray meets the sky.
 #[derive(Clone, Copy, Debug)]
 struct SkyGuideAlong<'t> {
     guide: VertexGuide<'t>,
-    pdf: Option<f32>,
 }
 
 impl SkyGuideAlong<'_> {
     /// The guide's sky share and its density along the ray's unit direction `dir`.
     #[inline]
     fn share_and_pdf(&self, dir: Vec3) -> (f32, f32) {
-        let pdf = self.pdf.unwrap_or_else(|| self.guide.pdf(dir));
-        (self.guide.sky_share(), pdf)
+        let share = self.guide.sky_share();
+        let pdf = if share > 0.0 {
+            self.guide.sky_pdf(dir)
+        } else {
+            0.0
+        };
+        (share, pdf)
     }
 }
 
@@ -316,7 +317,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let Some(current) = hit else {
                 let sky = throughput * self.sky(ray.dir, emission_weight);
                 radiance += sky;
-                recorder.added(sky);
+                if matches!(emission_weight, EmissionWeight::Mis { .. }) {
+                    recorder.met_sky(sky);
+                } else {
+                    recorder.added(sky);
+                }
                 if !passes_found {
                     out.albedo = self
                         .scene
@@ -562,7 +567,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let unlit = |recorder: &mut R| {
             if let (GuidedLightDraw::Complete(light, Some(_)), Some(guide)) = (&drawn, guide) {
                 let draw = || Some(self.sky_draw(light, guide.normal(), Vec3::ZERO));
-                recorder.light_sample(surface.p, light.dir, Vec3::ZERO, draw);
+                recorder.light_sample(surface.p, light.dir, Vec3::ZERO, Vec3::ZERO, draw);
             }
             Vec3::ZERO
         };
@@ -586,18 +591,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
-                let mixture = match sky_guide_pdf {
-                    Some(guide_pdf) => guide.mixture_of(bsdf_pdf, guide_pdf),
-                    None => guide.mixture_pdf(bsdf_pdf, light.dir),
-                };
-                power_heuristic(light.pdf, mixture)
+                power_heuristic(light.pdf, guide.mixture_pdf(bsdf_pdf, light.dir))
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
+        };
+        let sky_integrand_over_pdf = match light.point {
+            None if R::RECORDS => f * light.emission * (weight / light.pdf),
+            _ => Vec3::ZERO,
         };
         recorder.light_sample(
             surface.p,
             light.dir,
             light.emission * (weight / light.pdf),
+            sky_integrand_over_pdf,
             || sky_normal.map(|n| self.sky_draw(&light, n, f * light.emission)),
         );
         // In this order, as before guiding existed: unguided samples keep their bits.
@@ -691,9 +697,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             (wi, value, pdf, Some(guide_pdf))
         } else {
             let sample = bsdf.sample(wo, Vec2::new(u1, u2))?;
-            // Where nothing is drawn from the guide, the mixture is the BSDF alone
-            // and the guide's density is left to the sky's MIS weight (see
-            // `SkyGuideAlong`).
+            // Where nothing is drawn from the guide, the mixture is the BSDF alone.
             let guide_pdf = (guide.selection() > 0.0).then(|| guide.pdf(sample.wi));
             (sample.wi, sample.value, sample.pdf, guide_pdf)
         };
@@ -707,10 +711,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission: EmissionWeight::Mis {
                 bsdf_pdf: pdf,
                 from,
-                sky_guide: Some(SkyGuideAlong {
-                    guide,
-                    pdf: guide_pdf,
-                }),
+                sky_guide: Some(SkyGuideAlong { guide }),
             },
             eta: 1.0,
             traced: None,

@@ -1,15 +1,16 @@
-//! What a guide learnt, seen from one pixel: the directional distribution of the
+//! What a guide learnt, seen from one pixel: the directional distributions of the
 //! region of the first point the pixel's centre ray scatters at (through mirrors and
-//! glass, as a path would), as an image (`ember render --guide-image`).
+//! glass, as a path would), of all incident light and of the sky seen directly, as
+//! images (`ember render --guide-image`, `--guide-sky`).
 
 use glam::{Vec2, Vec3};
 
 use crate::accel::Accel;
-use crate::guiding::{mass_in_cone, SdTree};
+use crate::guiding::{mass_in_cone, QuadTree, SdTree};
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
 
-/// The learnt distribution at one pixel's first non-delta vertex.
+/// The learnt distributions at one pixel's first non-delta vertex.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GuideView {
     /// The vertex, and its shading normal turned to the side the ray came from.
@@ -19,7 +20,18 @@ pub struct GuideView {
     pub selection: f32,
     /// The region's share of sky samples drawn from the guide.
     pub sky_share: f32,
-    /// The share of the region's mass below the vertex's surface (what the fold
+    /// The region's distribution of all incident light, which scattered directions
+    /// follow.
+    pub all_light: GuidePicture,
+    /// The region's distribution of the sky it sees directly, which sky samples
+    /// follow.
+    pub sky: GuidePicture,
+}
+
+/// One of a region's distributions, as a picture.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GuidePicture {
+    /// The share of the distribution's mass below the vertex's surface (what the fold
     /// mirrors onto the side the BSDF reflects into).
     pub below: f64,
     pub width: u32,
@@ -28,8 +40,19 @@ pub struct GuideView {
     pub density: Vec<f32>,
 }
 
-/// The learnt distribution at the first non-delta vertex of the ray through the centre
-/// of pixel `(x, y)` (the lens's centre for a thin lens), as a `width × height` image.
+impl GuidePicture {
+    fn of(tree: &QuadTree, normal: Vec3, (width, height): (u32, u32)) -> Self {
+        GuidePicture {
+            below: mass_in_cone(&|d| tree.pdf(d), -normal, std::f32::consts::FRAC_PI_2),
+            width,
+            height,
+            density: tree.density_image(width, height),
+        }
+    }
+}
+
+/// The learnt distributions at the first non-delta vertex of the ray through the
+/// centre of pixel `(x, y)` (the lens's centre for a thin lens), as `size` images.
 /// Delta vertices are passed as one path would (glass refracts or reflects by a draw
 /// of a fixed stream). `None` when the ray leaves the scene or meets no non-delta
 /// vertex within `max_depth` segments.
@@ -41,7 +64,7 @@ pub fn guide_view<A: Accel>(
     tree: &SdTree,
     (x, y): (u32, u32),
     max_depth: u32,
-    (width, height): (u32, u32),
+    size: (u32, u32),
 ) -> Option<GuideView> {
     let mut ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5);
     let mut rng = Rng::seeded(0x6775_6964_6576_6965);
@@ -61,17 +84,13 @@ pub fn guide_view<A: Accel>(
         } else {
             surface.ns
         };
-        let directions = tree.at(surface.p);
-        let below = mass_in_cone(&|d| directions.pdf(d), -normal, std::f32::consts::FRAC_PI_2);
         return Some(GuideView {
             p: surface.p,
             normal,
             selection: tree.selection_at(surface.p),
             sky_share: tree.sky_share_at(surface.p),
-            below,
-            width,
-            height,
-            density: directions.density_image(width, height),
+            all_light: GuidePicture::of(tree.at(surface.p), normal, size),
+            sky: GuidePicture::of(tree.sky_at(surface.p), normal, size),
         });
     }
     None

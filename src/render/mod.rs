@@ -15,7 +15,7 @@ mod identity;
 mod training;
 
 pub use adaptive::Adaptive;
-pub use guide_view::{guide_view, GuideView};
+pub use guide_view::{guide_view, GuidePicture, GuideView};
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDING_ITERATIONS};
 pub use training::train_guide;
 
