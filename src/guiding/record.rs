@@ -70,6 +70,19 @@ pub struct MixtureDraw {
 }
 
 impl MixtureDraw {
+    /// The draw of a sky sample that found no light (its shadow ray blocked, or
+    /// below the surface): it counts among its region's draws, and the second moments
+    /// never read a density of a draw whose integrand is 0, so none is looked up.
+    pub fn unlit(normal: Vec3) -> Self {
+        MixtureDraw {
+            integrand: 0.0,
+            base_pdf: 0.0,
+            guide_scale: 0.0,
+            pdf: 0.0,
+            normal,
+        }
+    }
+
     /// The draw of a direction whose integrand is `integrand` (per colour channel).
     pub fn new(integrand: Vec3, base_pdf: f32, guide_scale: f32, pdf: f32, normal: Vec3) -> Self {
         MixtureDraw {

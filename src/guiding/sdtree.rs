@@ -170,9 +170,15 @@ fn learnt_shares<'d>(leaf: &Leaf, draws: impl Iterator<Item = &'d GuidedDraw>) -
         let guide = |m: &MixtureDraw| {
             VertexGuide::new(&leaf.directions, m.normal, 0.0, 0.0).with_sky(&leaf.sky)
         };
+        // A draw that found no light adds nothing but its count, whatever the density.
+        let lit = |m: &MixtureDraw| m.integrand > 0.0;
         match &d.draw {
-            Draw::Scattered(m) => selection.add(m, guide(m).pdf(d.dir), &SELECTION_CHOICES),
-            Draw::Sky(m) => sky_share.add(m, guide(m).sky_pdf(d.dir), &SKY_SHARE_CHOICES),
+            Draw::Scattered(m) if lit(m) => {
+                selection.add(m, guide(m).pdf(d.dir), &SELECTION_CHOICES)
+            }
+            Draw::Sky(m) if lit(m) => sky_share.add(m, guide(m).sky_pdf(d.dir), &SKY_SHARE_CHOICES),
+            Draw::Scattered(m) => selection.add(m, 0.0, &SELECTION_CHOICES),
+            Draw::Sky(m) => sky_share.add(m, 0.0, &SKY_SHARE_CHOICES),
         }
     }
     [

@@ -559,15 +559,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         }
         let at = receiver(surface, wo);
-        let Some(drawn) = self.draw_light::<GUIDED, R>(at, guide, rng) else {
+        let Some(drawn) = self.draw_light::<GUIDED>(at, guide, rng) else {
             return Vec3::ZERO;
         };
-        // Training learns a region's sky share from every sky sample, lit or not
-        // (complete already, see `draw_light`).
+        // Training learns a region's sky share from every sky sample, lit or not.
         let unlit = |recorder: &mut R| {
-            if let (GuidedLightDraw::Complete(light, Some(_)), Some(guide)) = (&drawn, guide) {
-                let draw = || Some(self.sky_draw(light, guide.normal(), Vec3::ZERO));
-                recorder.light_sample(surface.p, light.dir, Vec3::ZERO, Vec3::ZERO, draw);
+            if let (GuidedLightDraw::Sky(_), Some(guide)) = (&drawn, guide) {
+                let draw = || Some(MixtureDraw::unlit(guide.normal()));
+                recorder.light_sample(surface.p, drawn.dir(), Vec3::ZERO, Vec3::ZERO, draw);
             }
             Vec3::ZERO
         };
@@ -611,12 +610,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     }
 
     /// The light sample of [`direct_light`](Self::direct_light), its sky direction
-    /// following the vertex's guide where it has one. Training learns a region's sky
-    /// share from every sky sample, lit or not, so it needs each one's density now; a
-    /// render looks up a sky sample's radiance and density only once its shadow ray is
-    /// clear ([`complete_light`](Self::complete_light)).
+    /// following the vertex's guide where it has one. A sky sample's radiance and
+    /// density are looked up only once its shadow ray is clear
+    /// ([`complete_light`](Self::complete_light)): training too learns a region's sky
+    /// share from every sky sample, lit or not, but an unlit one counts only as a draw.
     #[inline(always)]
-    fn draw_light<const GUIDED: bool, R: PathRecorder>(
+    fn draw_light<const GUIDED: bool>(
         &self,
         at: Receiver,
         guide: Option<VertexGuide>,
@@ -625,12 +624,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         match guide {
             Some(guide) if GUIDED => {
                 let share = guide.sky_share();
-                let drawn = self.lights.draw_with_sky_guide(at, rng, share, &guide)?;
-                if !R::RECORDS {
-                    return Some(drawn);
-                }
-                let (light, guide_pdf) = self.lights.complete(drawn, share, &guide)?;
-                Some(GuidedLightDraw::Complete(light, guide_pdf))
+                self.lights.draw_with_sky_guide(at, rng, share, &guide)
             }
             _ => {
                 let light = self.lights.sample(at, rng)?;
