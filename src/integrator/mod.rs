@@ -628,7 +628,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             _ => {
                 let light = self.lights.sample(at, rng)?;
-                Some(GuidedLightDraw::Complete(light, None))
+                Some(GuidedLightDraw::Complete(light))
             }
         }
     }
@@ -642,7 +642,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         guide: Option<VertexGuide>,
     ) -> Option<(LightSample, Option<f32>)> {
         match (drawn, guide) {
-            (GuidedLightDraw::Complete(light, guide_pdf), _) => Some((light, guide_pdf)),
+            (GuidedLightDraw::Complete(light), _) => Some((light, None)),
             (GuidedLightDraw::Sky(_), Some(guide)) => {
                 self.lights.complete(drawn, guide.sky_share(), &guide)
             }

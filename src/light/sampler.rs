@@ -229,12 +229,11 @@ pub struct LightSample {
     pub emission: Vec3,
 }
 
-/// A light sample of [`LightSampler::draw_with_sky_guide`]: complete (an emitter's,
-/// or one whose sky direction was completed, with the guide's density along it), or a
-/// sky direction still to be completed ([`LightSampler::complete`]).
+/// A light sample of [`LightSampler::draw_with_sky_guide`]: complete (an emitter's),
+/// or a sky direction still to be completed ([`LightSampler::complete`]).
 #[derive(Clone, Copy, Debug)]
 pub enum GuidedLightDraw {
-    Complete(LightSample, Option<f32>),
+    Complete(LightSample),
     Sky(SkyDraw),
 }
 
@@ -243,7 +242,7 @@ impl GuidedLightDraw {
     #[inline]
     pub fn dir(&self) -> Vec3 {
         match self {
-            GuidedLightDraw::Complete(sample, _) => sample.dir,
+            GuidedLightDraw::Complete(sample) => sample.dir,
             GuidedLightDraw::Sky(draw) => draw.dir,
         }
     }
@@ -252,7 +251,7 @@ impl GuidedLightDraw {
     #[inline]
     pub fn point(&self) -> Option<SurfaceOrigin> {
         match self {
-            GuidedLightDraw::Complete(sample, _) => sample.point,
+            GuidedLightDraw::Complete(sample) => sample.point,
             GuidedLightDraw::Sky(_) => None,
         }
     }
@@ -591,7 +590,7 @@ impl LightSampler {
                 .map(GuidedLightDraw::Sky),
             (SkyOrEmitter::Emitter(u1), u2) => {
                 let emitter = self.sample_emitter(at, (u1, u2), rng)?;
-                Some(GuidedLightDraw::Complete(emitter, None))
+                Some(GuidedLightDraw::Complete(emitter))
             }
         }
     }
@@ -622,7 +621,7 @@ impl LightSampler {
         guide: &impl SkyGuide,
     ) -> Option<(LightSample, Option<f32>)> {
         match drawn {
-            GuidedLightDraw::Complete(sample, guide_pdf) => Some((sample, guide_pdf)),
+            GuidedLightDraw::Complete(sample) => Some((sample, None)),
             GuidedLightDraw::Sky(draw) => {
                 let (sample, guide_pdf) = self.complete_sky(draw, share, guide)?;
                 Some((sample, Some(guide_pdf)))
