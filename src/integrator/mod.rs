@@ -582,11 +582,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if self.accel.occluded(&shadow) {
             return unlit(recorder);
         }
-        let Some((light, sky_guide_pdf)) = self.complete_light(drawn, guide) else {
+        // The normal the guide of a guided sky sample is folded about.
+        let sky_normal = match (&drawn, guide) {
+            (GuidedLightDraw::Sky(_), Some(guide)) => Some(guide.normal()),
+            _ => None,
+        };
+        let Some(light) = self.complete_light(drawn, guide) else {
             return Vec3::ZERO;
         };
-        // The normal the guide of a guided sky sample is folded about.
-        let sky_normal = sky_guide_pdf.and(guide).map(|guide| guide.normal());
         let weight = match (mis, guide) {
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
@@ -633,19 +636,20 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
     }
 
-    /// The light sample `drawn` at a vertex with `guide`, and the guide's density along
-    /// a sky sample's direction (see [`LightSampler::complete`]).
+    /// The light sample `drawn` at a vertex with `guide` (see
+    /// [`LightSampler::complete`]).
     #[inline(always)]
     fn complete_light(
         &self,
         drawn: GuidedLightDraw,
         guide: Option<VertexGuide>,
-    ) -> Option<(LightSample, Option<f32>)> {
+    ) -> Option<LightSample> {
         match (drawn, guide) {
-            (GuidedLightDraw::Complete(light), _) => Some((light, None)),
-            (GuidedLightDraw::Sky(_), Some(guide)) => {
-                self.lights.complete(drawn, guide.sky_share(), &guide)
-            }
+            (GuidedLightDraw::Complete(light), _) => Some(light),
+            (GuidedLightDraw::Sky(_), Some(guide)) => self
+                .lights
+                .complete(drawn, guide.sky_share(), &guide)
+                .map(|(light, _)| light),
             // A sky draw comes only from a guide.
             (GuidedLightDraw::Sky(_), None) => None,
         }
