@@ -7,9 +7,11 @@
 #   EMBER=target/release/ember ROOM_DIR=.../grey-white-room ROOM_REF=room.exr \
 #   STAIR_DIR=.../wooden-staircase STAIR_REF=stair.exr bash benches/guiding_efficiency.sh
 #
-# References (not shipped): the room's is an ember render at 160x90, 8192 spp with the
-# room's flags below (benches/clean_images.py --scenes room), or 4096 spp as two shards
-# (--shard 0/2, 1/2, seed 1) merged by `ember merge`, relMSE about 1.8e-3 of its own; the staircase's one at
+# References (not shipped): the room's is a guided ember render at 160x90, 16384 spp
+# with the room's flags below, --max-depth 8 --seed 1 --guiding (about 12 minutes on 2
+# threads; relMSE about 2.2e-4 of its own). An unguided one of 4096 spp (relMSE about
+# 1.8e-3 of its own, an eighth of a guided 256-spp render's error) lowers the room's
+# measured gain per sample from 2.0x to 1.9x (README, "A tenth sitting"); the staircase's one at
 # 72x128, 16384 spp with the staircase's flags and --seed 7. SCENES (default
 # "room stair orig glossy") and REPS (default 2) choose what runs.
 set -euo pipefail
