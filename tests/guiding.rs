@@ -1100,9 +1100,9 @@ fn ember(args: &[&str]) -> Output {
         .expect("ember runs")
 }
 
-/// `--guiding` with another integrator than mis is refused in one line before any
-/// work; a guided render reports its training and its tree, and trains for an eighth
-/// of its samples unless told.
+/// `--guiding` guides every integrator; a bad iteration count is refused in one line
+/// before any work; a guided render reports its training and its tree, and trains for
+/// an eighth of its samples unless told.
 #[test]
 fn the_guiding_flag() {
     let dir = tempfile::tempdir().unwrap();
@@ -1121,15 +1121,29 @@ fn the_guiding_flag() {
         "2",
         "--guiding",
     ];
-    let refused = ember(&[&common[..], &["--integrator", "bsdf"]].concat());
+    let refused = ember(&[&common[..], &["--guiding-iterations", "0"]].concat());
     let stderr = String::from_utf8_lossy(&refused.stderr);
     assert!(!refused.status.success());
     assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
     assert!(
-        stderr.starts_with("error:") && stderr.contains("--guiding"),
+        stderr.starts_with("error:") && stderr.contains("--guiding-iterations"),
         "{stderr}"
     );
     assert!(!Path::new(out).exists());
+    // Every integrator is guided.
+    for integrator in ["bsdf", "light", "mixture"] {
+        let args = [
+            &common[..],
+            &["--integrator", integrator, "--guiding-iterations", "2"],
+        ];
+        let guided = ember(&args.concat());
+        let stderr = String::from_utf8_lossy(&guided.stderr);
+        assert!(guided.status.success(), "{integrator}: {stderr}");
+        assert!(
+            stderr.contains("guiding trained in"),
+            "{integrator}: {stderr}"
+        );
+    }
     let guided = ember(&[&common[..], &["--guiding-iterations", "2"]].concat());
     let stderr = String::from_utf8_lossy(&guided.stderr);
     assert!(guided.status.success(), "{stderr}");

@@ -259,7 +259,17 @@ fn errors_against(scene: &ReferenceScene, low: u32, high: u32) -> Vec<(Integrato
 /// integrator (`low` → `high` spp): its variance does, and a bias would not. Returns
 /// each integrator's relMSE at `high` spp.
 fn converges_to(scene: &ReferenceScene, low: u32, high: u32) -> Vec<(IntegratorKind, f64)> {
-    errors_against(scene, low, high)
+    converges_with(errors_against(scene, low, high), scene, low, high)
+}
+
+/// [`converges_to`]'s test on the `errors` of every integrator at `low` and `high` spp.
+fn converges_with(
+    errors: Vec<(IntegratorKind, f64, f64)>,
+    scene: &ReferenceScene,
+    low: u32,
+    high: u32,
+) -> Vec<(IntegratorKind, f64)> {
+    errors
         .into_iter()
         .map(|(kind, at_low, at_high)| {
             let ratio = at_low / at_high;
@@ -419,55 +429,88 @@ fn all_integrators_converge_to_the_sphere_reference() {
     mis_within_the_peer(&errors, 64, 2.75, 1.3e-3);
 }
 
-/// `mis` with path guiding (a guide trained at 128² over 5 iterations, 31 spp) on
-/// the glossy Cornell box: its relMSE against the independent reference falls at least
-/// like 1/spp (16 → 64 spp), so the mixture of BSDF and guide, and the MIS weights
-/// with its density, add no bias; and at 64 spp it is within the noise the
-/// independent renderer has (as unguided `mis` is).
-#[test]
-fn guided_mis_converges_to_the_glossy_reference() {
-    let scene = &GLOSSY_MIX;
+/// Every integrator with path guiding, each with a guide of its own trained at 128²
+/// over 5 iterations (31 spp): its relMSE against the independent reference at `low`
+/// and `high` spp, as [`errors_against`] gives it unguided.
+fn guided_errors_against(
+    scene: &ReferenceScene,
+    low: u32,
+    high: u32,
+) -> Vec<(IntegratorKind, f64, f64)> {
     let reference = Image::load(&repo(scene.reference)).expect("reference ships in tests/data");
     let loaded = load(&repo(scene.obj));
-    let kind = IntegratorKind::Mis;
-    let tracer = PathTracer::new(&loaded.scene, &loaded.accel, scene.max_depth, kind);
-    let training = RenderSettings {
-        width: 128,
-        height: 128,
-        spp: 1,
-        max_depth: scene.max_depth,
-        seed: 9,
-        integrator: kind,
-        adaptive: None,
-        light_sampler: Default::default(),
-        guiding: Some(Guiding { iterations: 5 }),
-    };
-    let (tree, stats) = train_guide(
-        &tracer,
-        &(scene.camera)(128),
-        &training,
-        Guiding { iterations: 5 },
-        &AtomicUsize::new(0),
-    )
-    .expect("not stopped");
-    eprintln!("guide: {stats:?}");
-    let guided = tracer.with_guide(Some(&tree));
     let camera = (scene.camera)(512);
-    let error = |spp, seed| {
-        error_against(
-            &render_pixels_with(&guided, &camera, 512, 4, spp, seed),
-            &reference,
-        )
-        .rel_mse
-    };
-    let (low, high) = (error(16, 1), error(64, 2));
-    eprintln!("guided mis: relMSE {low:.3e} at 16 spp, {high:.3e} at 64 spp");
-    let ratio = low / high;
-    assert!(
-        (2.5..64.0).contains(&ratio),
-        "relMSE ratio 16→64 spp {ratio:.2}"
+    ALL.iter()
+        .map(|&kind| {
+            let tracer = PathTracer::new(&loaded.scene, &loaded.accel, scene.max_depth, kind);
+            let training = RenderSettings {
+                width: 128,
+                height: 128,
+                spp: 1,
+                max_depth: scene.max_depth,
+                seed: 9,
+                integrator: kind,
+                adaptive: None,
+                light_sampler: Default::default(),
+                guiding: Some(Guiding { iterations: 5 }),
+            };
+            let (tree, stats) = train_guide(
+                &tracer,
+                &(scene.camera)(128),
+                &training,
+                Guiding { iterations: 5 },
+                &AtomicUsize::new(0),
+            )
+            .expect("not stopped");
+            assert!(
+                stats.guided_leaves > 0,
+                "{kind:?} on {}: {stats:?}",
+                scene.obj
+            );
+            let guided = tracer.with_guide(Some(&tree));
+            let error = |spp, seed| {
+                let pixels = render_pixels_with(&guided, &camera, 512, 4, spp, seed);
+                error_against(&pixels, &reference).rel_mse
+            };
+            let (l, h) = (error(low, 1), error(high, 2));
+            eprintln!(
+                "{} guided {kind:?}: relMSE {l:.3e} at {low} spp, {h:.3e} at {high} spp \
+                 (ratio {:.2}; {} of {} regions guided)",
+                scene.obj,
+                l / h,
+                stats.guided_leaves,
+                stats.leaves
+            );
+            (kind, l, h)
+        })
+        .collect()
+}
+
+/// With path guiding, every integrator's relMSE against the independent reference
+/// falls at least like 1/spp (as [`converges_to`] asks of them unguided): the
+/// mixtures with the guide, and in `mis` the MIS weights with their density, add no
+/// bias. Guided `mis` at 64 spp is within the noise the independent renderer has, as
+/// unguided `mis` is.
+#[test]
+fn guided_integrators_converge_to_the_glossy_reference() {
+    let errors = converges_with(
+        guided_errors_against(&GLOSSY_MIX, 16, 64),
+        &GLOSSY_MIX,
+        16,
+        64,
     );
-    mis_within_the_peer(&[(kind, high)], 64, 1.37, 3.3e-4);
+    mis_within_the_peer(&errors, 64, 1.37, 3.3e-4);
+}
+
+#[test]
+fn guided_integrators_converge_to_the_global_illumination_reference() {
+    converges_with(guided_errors_against(&ORIGINAL, 8, 32), &ORIGINAL, 8, 32);
+}
+
+#[test]
+fn guided_integrators_converge_to_the_sphere_reference() {
+    let errors = converges_with(guided_errors_against(&SPHERE, 16, 64), &SPHERE, 16, 64);
+    mis_within_the_peer(&errors, 64, 2.75, 1.3e-3);
 }
 
 /// On a Cornell box whose light is 1% of the ceiling, sampling the light must beat

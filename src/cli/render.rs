@@ -29,7 +29,6 @@ use ember::film::output::FilmOutput;
 use ember::film::{shard_samples, Film};
 use ember::guiding::{Guiding, SdTree, MAX_ITERATIONS};
 use ember::image::{self, Tonemap};
-use ember::integrator::IntegratorKind;
 use ember::render::{
     self, Adaptive, Checkpointing, GuideView, PassReport, RenderControl, RenderSettings,
     RenderStats, GUIDING_ITERATIONS,
@@ -139,10 +138,10 @@ pub struct RenderArgs {
     /// Light-transport estimator.
     #[arg(long, value_enum, default_value_t = IntegratorArg::Mis)]
     integrator: IntegratorArg,
-    /// Path guiding (Müller et al. 2017, with --integrator mis): an SD-tree of the
+    /// Path guiding (Müller et al. 2017, with any --integrator): an SD-tree of the
     /// incident light, trained before rendering (2^N − 1 spp over
-    /// --guiding-iterations N), guides a learnt share of the BSDF and sky samples in
-    /// the regions where guiding pays. The training's samples are the image's first
+    /// --guiding-iterations N), guides a learnt share of the scattered directions (and,
+    /// with light samples, of the sky samples) in the regions where guiding pays. The training's samples are the image's first
     /// 2^N − 1 of --spp.
     #[arg(long)]
     guiding: bool,
@@ -401,9 +400,6 @@ impl RenderPlan {
         self.check_outputs()?;
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
-        if self.settings.guiding.is_some() && self.settings.integrator != IntegratorKind::Mis {
-            bail!("--guiding guides the mis integrator only: drop --integrator or --guiding");
-        }
         if let Some((_, (x, y))) = self.guide_image {
             let (w, h) = (self.settings.width, self.settings.height);
             if x >= w || y >= h {

@@ -14,12 +14,14 @@
 //!   (the jitter a hash of the record, so the tree stays a function of the records
 //!   and their order), and over the neighbouring cells of that region's quadtree (a
 //!   square the size of the record's cell) exactly.
-//! - Sampling (`mis` only, at every non-delta vertex): a one-sample mixture of the
-//!   BSDF's sampling and the guide's ([`VertexGuide`]: the region's distribution
+//! - Sampling (at every non-delta vertex a path scatters from, in every integrator): a
+//!   one-sample mixture of the integrator's own strategy (the BSDF's sampling; for
+//!   `mixture`, the book's mixture of BSDF and lights) and the guide's
+//!   ([`VertexGuide`]: the region's distribution
 //!   folded onto the hemisphere the BSDF reflects into), drawing from the guide with
 //!   the region's learnt selection probability ([`SdTree::refined`]); the mixture's
-//!   density is what the path's weight divides by and what multiple importance
-//!   sampling weighs against next-event estimation. The BSDF half keeps the density
+//!   density is what the path's weight divides by and (in `mis`) what multiple
+//!   importance sampling weighs against next-event estimation. The other half keeps the density
 //!   positive wherever the integrand is, so the estimate stays unbiased whatever the
 //!   guide learnt. A guided vertex's sky light samples draw likewise from a mixture
 //!   of the sky's own sampling and a second quadtree of the region, of the sky it

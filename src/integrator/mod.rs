@@ -23,10 +23,12 @@
 //! PDF": a path that only ever goes towards lights has density 0 for every other
 //! direction, so it cannot converge to global illumination (only to direct light).
 //!
-//! With a guide ([`PathTracer::guide`], `mis` only), the BSDF sample at non-delta
-//! vertices becomes a one-sample mixture of the BSDF's and the guide's sampling, and
-//! the mixture's density takes the BSDF's place in the path weight and in both MIS
-//! weights (see [`crate::guiding`]).
+//! With a guide ([`PathTracer::guide`]), the direction a path scatters into at a
+//! non-delta vertex comes from a one-sample mixture of the estimator's own strategy
+//! (the BSDF's sampling; for `mixture`, the book's mixture of BSDF and lights) and the
+//! guide's, and the mixture's density takes the strategy's place in the path weight
+//! (and, in `mis`, in both MIS weights; see [`crate::guiding`]). Light samples at
+//! guided vertices (`light`, `mis`) draw some of their sky directions from the guide.
 //!
 //! At delta vertices (mirrors, smooth glass) every estimator follows the BSDF's sample,
 //! and the emission found next counts in full. Russian roulette may end any path from
@@ -93,7 +95,8 @@ pub struct PathTracer<'a, A: Accel> {
     pub kind: IntegratorKind,
     /// The distribution over the scene's emitters, built once per render.
     pub lights: LightSampler,
-    /// The learnt distribution of incident light that guides `mis` (none: unguided).
+    /// The learnt distribution of incident light that guides the path (none:
+    /// unguided).
     pub guide: Option<&'a SdTree>,
 }
 
@@ -159,6 +162,8 @@ impl SkyGuideAlong<'_> {
 struct Step<'t> {
     dir: Vec3,
     weight: Vec3,
+    /// The density `dir` was drawn with (a delta lobe's probability for delta steps).
+    pdf: f32,
     emission: EmissionWeight<'t>,
     /// Relative index crossed by a refraction (1 otherwise).
     eta: f32,
@@ -243,7 +248,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
     }
 
-    /// The same tracer guided by `guide` (used by `mis` only).
+    /// The same tracer guided by `guide`.
     pub fn with_guide(self, guide: Option<&'a SdTree>) -> Self {
         PathTracer { guide, ..self }
     }
@@ -359,8 +364,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             // where the guide has anything to go by (not the untrained one of
             // training's first iteration); elsewhere the ordinary roulette plays.
             let mut adjoint_survival = None;
+            // A vertex is guided where the path scatters from it: not at the last
+            // vertex of the estimators that end there with their light sample.
+            let scatters = match self.kind {
+                IntegratorKind::Bsdf | IntegratorKind::Mixture => true,
+                IntegratorKind::Light | IntegratorKind::Mis => !last_vertex,
+            };
             let guide = match self.guide {
-                Some(tree) if GUIDED && mis && !bsdf.is_delta() => {
+                Some(tree) if GUIDED && scatters && !bsdf.is_delta() => {
                     let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
                     let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
                     adjoint_survival = roulette.survival(channel_mean(radiance), expected);
@@ -403,22 +414,25 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 }
                 throughput /= survive;
             }
-            let step = match self.kind {
-                _ if bsdf.is_delta() => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
-                IntegratorKind::Bsdf => self.bsdf_step(&bsdf, wo, EmissionWeight::Full, rng),
-                IntegratorKind::Light => self.bsdf_step(&bsdf, wo, EmissionWeight::Skip, rng),
-                IntegratorKind::Mis => match guide {
-                    Some(guide) => self.guided_step(&bsdf, wo, guide, receiver(&surface, wo), rng),
-                    None => {
-                        let pending = EmissionWeight::Mis {
-                            bsdf_pdf: 0.0,
-                            from: receiver(&surface, wo),
-                            sky_guide: None,
-                        };
-                        self.bsdf_step(&bsdf, wo, pending, rng)
-                    }
+            // How the emission the next ray meets counts, its MIS weight completed by
+            // the step with the density it drew the ray with.
+            let emission = match self.kind {
+                _ if bsdf.is_delta() => EmissionWeight::Full,
+                IntegratorKind::Bsdf | IntegratorKind::Mixture => EmissionWeight::Full,
+                IntegratorKind::Light => EmissionWeight::Skip,
+                IntegratorKind::Mis => EmissionWeight::Mis {
+                    bsdf_pdf: 0.0,
+                    from: receiver(&surface, wo),
+                    sky_guide: None,
                 },
-                IntegratorKind::Mixture => self.mixture_step(&surface, &bsdf, wo, rng, count),
+            };
+            let step = match (self.kind, guide) {
+                _ if bsdf.is_delta() => self.bsdf_step(&bsdf, wo, emission, rng),
+                (IntegratorKind::Mixture, _) => {
+                    self.mixture_step(&surface, &bsdf, wo, guide, rng, count)
+                }
+                (_, Some(guide)) => self.guided_step(&bsdf, wo, guide, emission, rng),
+                (_, None) => self.bsdf_step(&bsdf, wo, emission, rng),
             };
             let Some(step) = step else {
                 break;
@@ -426,9 +440,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             throughput *= step.weight;
             eta_scale *= step.eta * step.eta;
             emission_weight = step.emission;
-            if let EmissionWeight::Mis { bsdf_pdf, .. } = step.emission {
+            // Training records the guided vertices (every non-delta one it scatters
+            // from: training measures every region's draws).
+            if step.mixture.is_some() {
                 let mixture = || step.mixture;
-                recorder.scattered(surface.p, step.dir, bsdf_pdf, throughput, mixture);
+                recorder.scattered(surface.p, step.dir, step.pdf, throughput, mixture);
             }
             if throughput == Vec3::ZERO {
                 break;
@@ -533,6 +549,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         Some(Step {
             dir: sample.wi,
             weight: sample.weight(),
+            pdf: sample.pdf,
             emission,
             eta: sample.eta,
             traced: None,
@@ -670,16 +687,17 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         )
     }
 
-    /// The guided `mis` step at a non-delta vertex: a direction from the BSDF or the
-    /// guide (with the guide's selection probability), weighted by `f·cos` over the
-    /// mixture's density, which the next emission's MIS weight uses too.
+    /// The guided step at a non-delta vertex: a direction from the BSDF or the guide
+    /// (with the guide's selection probability), weighted by `f·cos` over the
+    /// mixture's density, which completes a `Mis` emission weight (with the guide,
+    /// which draws some of the sky samples whose density that weight needs).
     #[inline]
     fn guided_step<'t>(
         &self,
         bsdf: &Bsdf,
         wo: Vec3,
         guide: VertexGuide<'t>,
-        from: Receiver,
+        emission: EmissionWeight<'t>,
         rng: &mut Rng,
     ) -> Option<Step<'t>> {
         // One 2-D draw, as an unguided step's: its first number chooses the guide or
@@ -703,14 +721,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if value == Vec3::ZERO || pdf.is_nan() || pdf <= 0.0 {
             return None;
         }
-        Some(Step {
-            dir: wi,
-            weight: value / pdf,
-            emission: EmissionWeight::Mis {
+        let emission = match emission {
+            EmissionWeight::Mis { from, .. } => EmissionWeight::Mis {
                 bsdf_pdf: pdf,
                 from,
                 sky_guide: Some(SkyGuideAlong { guide }),
             },
+            other => other,
+        };
+        Some(Step {
+            dir: wi,
+            weight: value / pdf,
+            pdf,
+            emission,
             eta: 1.0,
             traced: None,
             mixture: Some((value, bsdf_pdf, guide.normal())),
@@ -721,42 +744,77 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// here because the light density of a direction depends on what it hits, and
     /// weighted by `f·cos / mixture value`. `None` when the draw is void (a light point
     /// that is hidden or faces away), which ends the path with nothing more to add.
-    fn mixture_step(
+    ///
+    /// With a `guide`, the book's mixture is itself mixed with the guide:
+    /// `(1 − α) · (0.5 · bsdf + 0.5 · light) + α · guide`, α the guide's selection
+    /// probability, chosen by a number of its own only where α > 0 (so a region that
+    /// draws nothing from its guide takes the unguided step, number for number).
+    /// Inlined, so that the unguided path loop, whose `guide` is always `None`, keeps
+    /// none of the guide's branches.
+    #[inline(always)]
+    fn mixture_step<'t>(
         &self,
         surface: &SurfacePoint,
         bsdf: &Bsdf,
         wo: Vec3,
+        guide: Option<VertexGuide<'t>>,
         rng: &mut Rng,
         count: &mut RayCount,
-    ) -> Option<Step<'static>> {
+    ) -> Option<Step<'t>> {
         let bsdf_pdf = BsdfPdf { bsdf, wo };
         // Where no light can shine, the mixture is all BSDF: a light sample there would
         // be void. The weights depend only on the point, so the estimate stays unbiased.
         if !self.lights.may_light(surface.p) {
-            return self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng);
+            return match guide {
+                Some(guide) => self.guided_step(bsdf, wo, guide, EmissionWeight::Full, rng),
+                None => self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng),
+            };
         }
         let light_pdf = LightPdf {
             at: receiver(surface, wo),
             lights: &self.lights,
         };
         let mixture = MixturePdf::even(bsdf_pdf, light_pdf);
-        let drawn = mixture.generate(rng)?;
-        let next = self.trace(&surface.origin().spawn(drawn.dir), count);
+        let selection = guide.map_or(0.0, |guide| guide.selection());
+        let guided = match guide {
+            Some(guide) if selection > 0.0 && rng.f32() < selection => {
+                let (u1, u2) = rng.pair();
+                Some(guide.sample_with_pdf(Vec2::new(u1, u2)))
+            }
+            _ => None,
+        };
+        let (dir, guide_pdf, drawn) = match guided {
+            Some((dir, guide_pdf)) => (dir, Some(guide_pdf), None),
+            None => {
+                let drawn = mixture.generate(rng)?;
+                (drawn.dir, None, Some(drawn))
+            }
+        };
+        let next = self.trace(&surface.origin().spawn(dir), count);
         let light = next.map(|hit| self.scene.light_hit(hit));
-        if !drawn.reached(light.as_ref()) {
+        if drawn.is_some_and(|drawn| !drawn.reached(light.as_ref())) {
             return None;
         }
-        let density = mixture.value(drawn.dir, light.as_ref());
+        let book = mixture.value(dir, light.as_ref());
+        let density = match guide {
+            Some(guide) if selection > 0.0 => {
+                let guide_pdf = guide_pdf.unwrap_or_else(|| guide.pdf(dir));
+                guide.mixture_of(book, guide_pdf)
+            }
+            _ => book,
+        };
         if density.is_nan() || density <= 0.0 {
             return None;
         }
+        let value = bsdf.eval(wo, dir);
         Some(Step {
-            dir: drawn.dir,
-            weight: bsdf.eval(wo, drawn.dir) / density,
+            dir,
+            weight: value / density,
+            pdf: density,
             emission: EmissionWeight::Full,
             eta: 1.0,
             traced: Some(next),
-            mixture: None,
+            mixture: guide.map(|guide| (value, book, guide.normal())),
         })
     }
 }

@@ -50,7 +50,7 @@ pub struct RenderSettings {
     pub light_sampler: LightSamplerKind,
     /// Adaptive sampling; `None` renders every pixel to `spp`.
     pub adaptive: Option<Adaptive>,
-    /// Path guiding (`mis` only), trained before rendering; `None`: unguided.
+    /// Path guiding, trained before rendering; `None`: unguided.
     pub guiding: Option<Guiding>,
 }
 
@@ -229,10 +229,7 @@ pub fn render_progressive<A: Accel>(
         settings.light_sampler,
     );
     let (light_build, light_nodes) = tracer.lights.build_cost();
-    let guiding = match settings.guiding {
-        Some(guiding) if settings.integrator == IntegratorKind::Mis => Some(guiding),
-        _ => None,
-    };
+    let guiding = settings.guiding;
     let before = film.total_done();
     let tiles: Vec<Mutex<FilmTile>> = film.tiles(TILE_SIZE).into_iter().map(Mutex::new).collect();
     let tiled = TiledFilm {
