@@ -13,7 +13,8 @@
 # 1.8e-3 of its own, an eighth of a guided 256-spp render's error) lowers the room's
 # measured gain per sample from 2.0x to 1.9x (README, "A tenth sitting"); the staircase's one at
 # 72x128, 16384 spp with the staircase's flags and --seed 7. SCENES (default
-# "room stair orig glossy") and REPS (default 2) choose what runs.
+# "room stair orig glossy") and REPS (default 2) choose what runs, INTEGRATOR (default
+# mis) the estimator both runs use.
 set -euo pipefail
 ROOT=$(cd "$(dirname "$0")/.." && pwd)
 EMBER=${EMBER:-$ROOT/target/release/ember}
@@ -32,6 +33,7 @@ run() { # label reference render-arguments...
   shift 2
   local cpu rel
   cpu=$( { /usr/bin/time -f "%U %S" "$EMBER" render "$@" --max-depth 8 --threads 1 \
+      --integrator "${INTEGRATOR:-mis}" \
       -o "$TMP/out.exr" 2>&1 >/dev/null; } | tail -1 | awk '{print $1 + $2}')
   rel=$("$EMBER" compare "$TMP/out.exr" "$ref" | grep -o 'relMSE [0-9.e+-]*' | cut -d' ' -f2)
   awk -v l="$label" -v r="$rel" -v c="$cpu" -v load="$(cut -d' ' -f1 /proc/loadavg)" \
