@@ -23,7 +23,7 @@ use ember::guiding::{
 };
 use ember::image::compare;
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
-use ember::light::{LightSampler, Receiver};
+use ember::light::{GuidedLightPdf, LightSampler, LightTarget, Pdf, Receiver};
 use ember::render::{
     guide_view, identity, render, train_guide, Adaptive, GuidePicture, GuideView, RenderSettings,
 };
@@ -568,7 +568,8 @@ fn sky_prefetch_replays_the_light_samples_draw() {
 /// sky's own sampling and a guide (trained and folded onto a hemisphere): for several
 /// shares, that density integrates to 1 over the sphere, the draws follow it
 /// (chi-square), and each sample carries the density and radiance of its direction
-/// and the guide's density along it.
+/// and the guide's density along it; so do the draws of the book's mixture's light
+/// half at a guided vertex ([`GuidedLightPdf`]).
 #[test]
 fn sky_samples_mixed_with_a_guide_follow_their_density() {
     let floor = floor_quad();
@@ -617,6 +618,31 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
             );
             assert_eq!(s.emission, sky.radiance(s.dir));
         }
+        // The book's mixture draws its light half as the same density
+        // (`GuidedLightPdf`): its draws follow its value too, aimed at the sky.
+        let pdf = GuidedLightPdf {
+            at,
+            lights: &lights,
+            share,
+            guide: &guide,
+        };
+        let name = format!("GuidedLightPdf, share {share}");
+        check_density(
+            &name,
+            &Density {
+                value: &|d| pdf.value(d, None),
+                draw: &|rng| {
+                    let drawn = pdf.generate(rng)?;
+                    assert_eq!(drawn.aimed_at, Some(LightTarget::Sky), "{name}");
+                    Some(drawn.dir)
+                },
+            },
+            normal,
+            1.0,
+            2e-2,
+            GUIDE_BINNING,
+            15,
+        );
     }
 }
 

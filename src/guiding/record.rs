@@ -138,6 +138,10 @@ pub trait PathRecorder {
         sky_integrand_over_pdf: Vec3,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     );
+    /// A sky direction `dir` drawn at the guided vertex `p` otherwise than by a light
+    /// sample (by the light half of the book's mixture): `draw` gives the draw the
+    /// region's sky share is learnt from (evaluated only if asked for).
+    fn sky_draw(&mut self, _p: Vec3, _dir: Vec3, _draw: impl FnOnce() -> MixtureDraw) {}
     /// The path has ended.
     fn finish(&mut self);
 }
@@ -293,6 +297,10 @@ impl PathRecorder for PathRecords<'_> {
                 self.draw(p, dir, Draw::Sky(m));
             }
         }
+    }
+
+    fn sky_draw(&mut self, p: Vec3, dir: Vec3, draw: impl FnOnce() -> MixtureDraw) {
+        self.draw(p, dir, Draw::Sky(draw()));
     }
 
     fn finish(&mut self) {

@@ -43,8 +43,8 @@ use crate::color::channel_mean;
 use crate::film::Sample;
 use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
 use crate::light::{
-    BsdfPdf, GuidedLightDraw, LightPdf, LightSample, LightSampler, LightSamplerKind, MixturePdf,
-    Pdf, Receiver,
+    BsdfPdf, GuidedLightDraw, GuidedLightPdf, LightPdf, LightSample, LightSampler,
+    LightSamplerKind, LightTarget, MixturePdf, Pdf, Receiver,
 };
 use crate::sampling::{choose_second, Rng};
 use crate::scene::{Scene, SurfacePoint};
@@ -316,13 +316,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let mut eta_scale = 1.0f32;
         let mut emission_weight = EmissionWeight::Full;
         let mut roulette = AdjointRoulette::default();
+        // Whether the ray was scattered by a vertex that training records (the sky it
+        // meets is then that vertex's record of the sky).
+        let mut ray_recorded = false;
         let mut hit = self.trace(&ray, count);
         out.depth = hit.map_or(0.0, |h| h.t);
         for segment in 1..=self.max_depth {
             let Some(current) = hit else {
                 let sky = throughput * self.sky(ray.dir, emission_weight);
                 radiance += sky;
-                if matches!(emission_weight, EmissionWeight::Mis { .. }) {
+                if ray_recorded {
                     recorder.met_sky(sky);
                 } else {
                     recorder.added(sky);
@@ -429,7 +432,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let step = match (self.kind, guide) {
                 _ if bsdf.is_delta() => self.bsdf_step(&bsdf, wo, emission, rng),
                 (IntegratorKind::Mixture, _) => {
-                    self.mixture_step(&surface, &bsdf, wo, guide, rng, count)
+                    self.mixture_step(&surface, &bsdf, wo, guide, rng, recorder, count)
                 }
                 (_, Some(guide)) => self.guided_step(&bsdf, wo, guide, emission, rng),
                 (_, None) => self.bsdf_step(&bsdf, wo, emission, rng),
@@ -442,7 +445,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission_weight = step.emission;
             // Training records the guided vertices (every non-delta one it scatters
             // from: training measures every region's draws).
-            if step.mixture.is_some() {
+            ray_recorded = step.mixture.is_some();
+            if ray_recorded {
                 let mixture = || step.mixture;
                 recorder.scattered(surface.p, step.dir, step.pdf, throughput, mixture);
             }
@@ -747,21 +751,24 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     ///
     /// With a `guide`, the book's mixture is itself mixed with the guide:
     /// `(1 − α) · (0.5 · bsdf + 0.5 · light) + α · guide`, α the guide's selection
-    /// probability, chosen by a number of its own only where α > 0 (so a region that
-    /// draws nothing from its guide takes the unguided step, number for number).
-    /// Inlined, so that the unguided path loop, whose `guide` is always `None`, keeps
-    /// none of the guide's branches.
+    /// probability, chosen by a number of its own only where α > 0; and the light half
+    /// draws its sky directions with the region's sky share from its sky guide, as a
+    /// guided light sample does ([`GuidedLightPdf`]). A region that draws nothing from
+    /// its guide takes the unguided step, number for number. Inlined, so that the
+    /// unguided path loop, whose `guide` is always `None`, keeps none of the guide's
+    /// branches.
+    #[allow(clippy::too_many_arguments)]
     #[inline(always)]
-    fn mixture_step<'t>(
+    fn mixture_step<'t, R: PathRecorder>(
         &self,
         surface: &SurfacePoint,
         bsdf: &Bsdf,
         wo: Vec3,
         guide: Option<VertexGuide<'t>>,
         rng: &mut Rng,
+        recorder: &mut R,
         count: &mut RayCount,
     ) -> Option<Step<'t>> {
-        let bsdf_pdf = BsdfPdf { bsdf, wo };
         // Where no light can shine, the mixture is all BSDF: a light sample there would
         // be void. The weights depend only on the point, so the estimate stays unbiased.
         if !self.lights.may_light(surface.p) {
@@ -770,11 +777,55 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 None => self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng),
             };
         }
-        let light_pdf = LightPdf {
-            at: receiver(surface, wo),
-            lights: &self.lights,
-        };
-        let mixture = MixturePdf::even(bsdf_pdf, light_pdf);
+        let bsdf_pdf = BsdfPdf { bsdf, wo };
+        let at = receiver(surface, wo);
+        let lights = &self.lights;
+        match guide {
+            // Training draws every guided vertex's sky directions as a guided light
+            // sample would, its share learnt from them.
+            Some(guide) if R::RECORDS || guide.sky_share() > 0.0 => {
+                let share = guide.sky_share();
+                let light_pdf = GuidedLightPdf {
+                    at,
+                    lights,
+                    share,
+                    guide: &guide,
+                };
+                let mixture = MixturePdf::even(bsdf_pdf, light_pdf);
+                self.mixture_draw(
+                    surface,
+                    bsdf,
+                    wo,
+                    mixture,
+                    Some(guide),
+                    rng,
+                    recorder,
+                    count,
+                )
+            }
+            _ => {
+                let mixture = MixturePdf::even(bsdf_pdf, LightPdf { at, lights });
+                self.mixture_draw(surface, bsdf, wo, mixture, guide, rng, recorder, count)
+            }
+        }
+    }
+
+    /// [`mixture_step`](Self::mixture_step)'s draw from `mixture` (the book's) and,
+    /// with a `guide`, from the guide; in training, a draw the light half aimed at the
+    /// sky is also a draw of the region's sky share.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn mixture_draw<'t, L: Pdf, R: PathRecorder>(
+        &self,
+        surface: &SurfacePoint,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        mixture: MixturePdf<BsdfPdf, L>,
+        guide: Option<VertexGuide<'t>>,
+        rng: &mut Rng,
+        recorder: &mut R,
+        count: &mut RayCount,
+    ) -> Option<Step<'t>> {
         let selection = guide.map_or(0.0, |guide| guide.selection());
         let guided = match guide {
             Some(guide) if selection > 0.0 && rng.f32() < selection => {
@@ -792,6 +843,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         };
         let next = self.trace(&surface.origin().spawn(dir), count);
         let light = next.map(|hit| self.scene.light_hit(hit));
+        if let (true, Some(guide), Some(LightTarget::Sky)) =
+            (R::RECORDS, guide, drawn.and_then(|d| d.aimed_at))
+        {
+            let draw = || self.mixture_sky_draw(bsdf, wo, dir, guide, next.is_none());
+            recorder.sky_draw(surface.p, dir, draw);
+        }
         if drawn.is_some_and(|drawn| !drawn.reached(light.as_ref())) {
             return None;
         }
@@ -816,5 +873,29 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             traced: Some(next),
             mixture: guide.map(|guide| (value, book, guide.normal())),
         })
+    }
+
+    /// The draw of a sky direction `dir` that the book's mixture's light half aimed
+    /// at from a guided vertex, for its region's sky share: as a guided light sample's
+    /// ([`sky_draw`](Self::sky_draw)), `f·cos · Le` where the ray met the sky.
+    fn mixture_sky_draw(
+        &self,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        dir: Vec3,
+        guide: VertexGuide<'_>,
+        met_sky: bool,
+    ) -> MixtureDraw {
+        if !met_sky {
+            return MixtureDraw::unlit(guide.normal());
+        }
+        let share = guide.sky_share();
+        MixtureDraw::new(
+            bsdf.eval(wo, dir) * self.scene.sky_radiance(dir),
+            self.lights.pdf_sky(dir),
+            self.lights.sky_probability(),
+            self.lights.pdf_sky_guided(dir, share, guide.sky_pdf(dir)),
+            guide.normal(),
+        )
     }
 }

@@ -15,7 +15,7 @@ mod sampler;
 pub mod spherical_triangle;
 
 pub use emitter::{Receiver, MAX_SOLID_ANGLE, MIN_SOLID_ANGLE};
-pub use pdf::{BsdfPdf, Direction, LightPdf, MixturePdf, Pdf};
+pub use pdf::{BsdfPdf, Direction, GuidedLightPdf, LightPdf, MixturePdf, Pdf};
 pub use sampler::{
     GuidedLightDraw, LightSample, LightSampler, LightSamplerKind, LightTarget, SkyGuide,
     BVH_MIN_EMITTERS,

@@ -14,7 +14,7 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{LightSampler, LightTarget, Receiver};
+use super::{GuidedLightDraw, LightSampler, LightTarget, Receiver, SkyGuide};
 use crate::bsdf::Bsdf;
 use crate::geometry::Hit;
 use crate::sampling::Rng;
@@ -99,6 +99,44 @@ impl Pdf for LightPdf<'_> {
         Some(Direction {
             dir: sample.dir,
             aimed_at: Some(sample.target),
+        })
+    }
+}
+
+/// [`LightPdf`] at a guided vertex: where it picks the sky, the direction comes with
+/// probability `share` from the vertex's sky guide and otherwise from the sky's own
+/// distribution ([`LightSampler::draw_with_sky_guide`]); emitters as [`LightPdf`].
+#[derive(Clone, Copy, Debug)]
+pub struct GuidedLightPdf<'a, G> {
+    pub at: Receiver,
+    pub lights: &'a LightSampler,
+    pub share: f32,
+    pub guide: &'a G,
+}
+
+impl<G: SkyGuide> Pdf for GuidedLightPdf<'_, G> {
+    #[inline]
+    fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
+        match first_hit {
+            Some(hit) => self.lights.pdf_hit(self.at, hit.prim, dir, hit.t),
+            None => self
+                .lights
+                .pdf_sky_guided(dir, self.share, self.guide.pdf(dir)),
+        }
+    }
+
+    #[inline]
+    fn generate(&self, rng: &mut Rng) -> Option<Direction> {
+        let drawn = self
+            .lights
+            .draw_with_sky_guide(self.at, rng, self.share, self.guide)?;
+        let aimed_at = match drawn {
+            GuidedLightDraw::Complete(sample) => sample.target,
+            GuidedLightDraw::Sky(_) => LightTarget::Sky,
+        };
+        Some(Direction {
+            dir: drawn.dir(),
+            aimed_at: Some(aimed_at),
         })
     }
 }
