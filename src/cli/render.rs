@@ -140,9 +140,9 @@ pub struct RenderArgs {
     integrator: IntegratorArg,
     /// Path guiding (Müller et al. 2017, with any --integrator): an SD-tree of the
     /// incident light, trained before rendering (2^N − 1 spp over
-    /// --guiding-iterations N), guides a learnt share of the scattered directions (and,
-    /// with light samples, of the sky samples) in the regions where guiding pays. The training's samples are the image's first
-    /// 2^N − 1 of --spp.
+    /// --guiding-iterations N), guides a learnt share of the scattered directions and
+    /// of the sky samples in the regions where guiding pays. The training's samples
+    /// are the image's first 2^N − 1 of --spp.
     #[arg(long)]
     guiding: bool,
     /// Training iterations of --guiding; iteration k takes 2^k samples per pixel
