@@ -627,7 +627,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             light.dir,
             light.emission * (weight / light.pdf),
             sky_integrand_over_pdf,
-            || sky_normal.map(|n| self.sky_draw(&light, n, f * light.emission)),
+            || sky_normal.map(|n| self.sky_draw(light.dir, light.pdf, n, f * light.emission)),
         );
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
@@ -676,17 +676,17 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         }
     }
 
-    /// What a guided vertex's sky sample (its guide folded about `normal`) tells
-    /// training (see [`LightSampler::sample_with_sky_guide`]): the draw its region's
-    /// sky share is learnt from, `integrand` being what it found (`f·cos · Le`, 0
-    /// where unlit).
+    /// What a guided vertex's sky sample along `dir`, drawn with density `pdf` (its
+    /// guide folded about `normal`), tells training (see
+    /// [`LightSampler::sample_with_sky_guide`]): the draw its region's sky share is
+    /// learnt from, `integrand` being what it found (`f·cos · Le`, 0 where unlit).
     #[inline]
-    fn sky_draw(&self, light: &LightSample, normal: Vec3, integrand: Vec3) -> MixtureDraw {
+    fn sky_draw(&self, dir: Vec3, pdf: f32, normal: Vec3, integrand: Vec3) -> MixtureDraw {
         MixtureDraw::new(
             integrand,
-            self.lights.pdf_sky(light.dir),
+            self.lights.pdf_sky(dir),
             self.lights.sky_probability(),
-            light.pdf,
+            pdf,
             normal,
         )
     }
@@ -889,13 +889,10 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !met_sky {
             return MixtureDraw::unlit(guide.normal());
         }
-        let share = guide.sky_share();
-        MixtureDraw::new(
-            bsdf.eval(wo, dir) * self.scene.sky_radiance(dir),
-            self.lights.pdf_sky(dir),
-            self.lights.sky_probability(),
-            self.lights.pdf_sky_guided(dir, share, guide.sky_pdf(dir)),
-            guide.normal(),
-        )
+        let pdf = self
+            .lights
+            .pdf_sky_guided(dir, guide.sky_share(), guide.sky_pdf(dir));
+        let integrand = bsdf.eval(wo, dir) * self.scene.sky_radiance(dir);
+        self.sky_draw(dir, pdf, guide.normal(), integrand)
     }
 }
