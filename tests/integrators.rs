@@ -10,7 +10,7 @@ use std::path::{Path, PathBuf};
 use common::stats::{furnace_radiance, SampleSums};
 use common::{build, diffuse, inward_cube, with_embree, Built};
 use ember::accel::{Accel, Ray};
-use ember::guiding::Guiding;
+use ember::guiding::{Guiding, SdTree};
 use ember::image::{compare_pixels, Image, ImageError};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::light::LightSamplerKind;
@@ -231,23 +231,32 @@ const SPHERE: ReferenceScene = ReferenceScene {
 };
 
 /// relMSE of every integrator against the independent reference at `low` and `high`
-/// spp (every 4th pixel in x and y, sampled as `ember render` samples them).
-fn errors_against(scene: &ReferenceScene, low: u32, high: u32) -> Vec<(IntegratorKind, f64, f64)> {
+/// spp (every 4th pixel in x and y, sampled as `ember render` samples them); `guided`:
+/// each with a guide of its own, trained at 128² over 5 iterations (31 spp).
+fn errors_against(
+    scene: &ReferenceScene,
+    low: u32,
+    high: u32,
+    guided: bool,
+) -> Vec<(IntegratorKind, f64, f64)> {
     let reference = Image::load(&repo(scene.reference)).expect("reference ships in tests/data");
     assert_eq!((reference.width, reference.height), (512, 512));
     let loaded = load(&repo(scene.obj));
     let camera = (scene.camera)(512);
     ALL.iter()
         .map(|&kind| {
+            let tracer = PathTracer::new(&loaded.scene, &loaded.accel, scene.max_depth, kind);
+            let tree = guided.then(|| trained_guide(&tracer, scene, kind));
+            let tracer = tracer.with_guide(tree.as_ref());
             let error = |spp, seed| {
-                let pixels =
-                    render_pixels(&loaded, &camera, kind, scene.max_depth, 512, 4, spp, seed);
+                let pixels = render_pixels_with(&tracer, &camera, 512, 4, spp, seed);
                 error_against(&pixels, &reference).rel_mse
             };
             let (l, h) = (error(low, 1), error(high, 2));
             eprintln!(
-                "{} {kind:?}: relMSE {l:.3e} at {low} spp, {h:.3e} at {high} spp (ratio {:.2})",
+                "{}{} {kind:?}: relMSE {l:.3e} at {low} spp, {h:.3e} at {high} spp (ratio {:.2})",
                 scene.obj,
+                if guided { " guided" } else { "" },
                 l / h
             );
             (kind, l, h)
@@ -255,11 +264,46 @@ fn errors_against(scene: &ReferenceScene, low: u32, high: u32) -> Vec<(Integrato
         .collect()
 }
 
+/// A guide for `tracer` (of integrator `kind`) on `scene`, trained at 128² over 5
+/// iterations (31 spp); some of its regions guide.
+fn trained_guide<A: Accel>(
+    tracer: &PathTracer<'_, A>,
+    scene: &ReferenceScene,
+    kind: IntegratorKind,
+) -> SdTree {
+    let guiding = Guiding { iterations: 5 };
+    let training = RenderSettings {
+        width: 128,
+        height: 128,
+        spp: 1,
+        max_depth: scene.max_depth,
+        seed: 9,
+        integrator: kind,
+        adaptive: None,
+        light_sampler: Default::default(),
+        guiding: Some(guiding),
+    };
+    let camera = (scene.camera)(128);
+    let stop = AtomicUsize::new(0);
+    let (tree, stats) =
+        train_guide(tracer, &camera, &training, guiding, &stop).expect("not stopped");
+    eprintln!(
+        "{} {kind:?}: {} of {} regions guided",
+        scene.obj, stats.guided_leaves, stats.leaves
+    );
+    assert!(
+        stats.guided_leaves > 0,
+        "{kind:?} on {}: {stats:?}",
+        scene.obj
+    );
+    tree
+}
+
 /// relMSE against the independent reference must fall at least like 1/spp for every
 /// integrator (`low` → `high` spp): its variance does, and a bias would not. Returns
 /// each integrator's relMSE at `high` spp.
 fn converges_to(scene: &ReferenceScene, low: u32, high: u32) -> Vec<(IntegratorKind, f64)> {
-    converges_with(errors_against(scene, low, high), scene, low, high)
+    converges_with(errors_against(scene, low, high, false), scene, low, high)
 }
 
 /// [`converges_to`]'s test on the `errors` of every integrator at `low` and `high` spp.
@@ -429,63 +473,6 @@ fn all_integrators_converge_to_the_sphere_reference() {
     mis_within_the_peer(&errors, 64, 2.75, 1.3e-3);
 }
 
-/// Every integrator with path guiding, each with a guide of its own trained at 128²
-/// over 5 iterations (31 spp): its relMSE against the independent reference at `low`
-/// and `high` spp, as [`errors_against`] gives it unguided.
-fn guided_errors_against(
-    scene: &ReferenceScene,
-    low: u32,
-    high: u32,
-) -> Vec<(IntegratorKind, f64, f64)> {
-    let reference = Image::load(&repo(scene.reference)).expect("reference ships in tests/data");
-    let loaded = load(&repo(scene.obj));
-    let camera = (scene.camera)(512);
-    ALL.iter()
-        .map(|&kind| {
-            let tracer = PathTracer::new(&loaded.scene, &loaded.accel, scene.max_depth, kind);
-            let training = RenderSettings {
-                width: 128,
-                height: 128,
-                spp: 1,
-                max_depth: scene.max_depth,
-                seed: 9,
-                integrator: kind,
-                adaptive: None,
-                light_sampler: Default::default(),
-                guiding: Some(Guiding { iterations: 5 }),
-            };
-            let (tree, stats) = train_guide(
-                &tracer,
-                &(scene.camera)(128),
-                &training,
-                Guiding { iterations: 5 },
-                &AtomicUsize::new(0),
-            )
-            .expect("not stopped");
-            assert!(
-                stats.guided_leaves > 0,
-                "{kind:?} on {}: {stats:?}",
-                scene.obj
-            );
-            let guided = tracer.with_guide(Some(&tree));
-            let error = |spp, seed| {
-                let pixels = render_pixels_with(&guided, &camera, 512, 4, spp, seed);
-                error_against(&pixels, &reference).rel_mse
-            };
-            let (l, h) = (error(low, 1), error(high, 2));
-            eprintln!(
-                "{} guided {kind:?}: relMSE {l:.3e} at {low} spp, {h:.3e} at {high} spp \
-                 (ratio {:.2}; {} of {} regions guided)",
-                scene.obj,
-                l / h,
-                stats.guided_leaves,
-                stats.leaves
-            );
-            (kind, l, h)
-        })
-        .collect()
-}
-
 /// With path guiding, every integrator's relMSE against the independent reference
 /// falls at least like 1/spp (as [`converges_to`] asks of them unguided): the
 /// mixtures with the guide, and in `mis` the MIS weights with their density, add no
@@ -494,7 +481,7 @@ fn guided_errors_against(
 #[test]
 fn guided_integrators_converge_to_the_glossy_reference() {
     let errors = converges_with(
-        guided_errors_against(&GLOSSY_MIX, 16, 64),
+        errors_against(&GLOSSY_MIX, 16, 64, true),
         &GLOSSY_MIX,
         16,
         64,
@@ -504,12 +491,12 @@ fn guided_integrators_converge_to_the_glossy_reference() {
 
 #[test]
 fn guided_integrators_converge_to_the_global_illumination_reference() {
-    converges_with(guided_errors_against(&ORIGINAL, 8, 32), &ORIGINAL, 8, 32);
+    converges_with(errors_against(&ORIGINAL, 8, 32, true), &ORIGINAL, 8, 32);
 }
 
 #[test]
 fn guided_integrators_converge_to_the_sphere_reference() {
-    let errors = converges_with(guided_errors_against(&SPHERE, 16, 64), &SPHERE, 16, 64);
+    let errors = converges_with(errors_against(&SPHERE, 16, 64, true), &SPHERE, 16, 64);
     mis_within_the_peer(&errors, 64, 2.75, 1.3e-3);
 }
 
