@@ -647,7 +647,8 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
 }
 
 /// A guided path where nothing is drawn from the guide is the unguided path, number for
-/// number, with every integrator, under a lamp and under a sky: training measures
+/// number, with every integrator, under a lamp (to the bit) and under a sky (to
+/// rounding, see below): training measures
 /// every region with its guide, and with the untrained tree (both shares 0 everywhere)
 /// its paths must read the same random numbers for the same purposes as unguided ones.
 /// A pixel's first-vertex numbers are one stratified (Sobol) sequence; `sd-tree 8`'s
@@ -657,12 +658,13 @@ fn sky_samples_mixed_with_a_guide_follow_their_density() {
 #[test]
 fn a_guided_path_drawing_nothing_from_the_guide_is_the_unguided_one() {
     let kinds = [
+        IntegratorKind::Mis,
         IntegratorKind::Bsdf,
         IntegratorKind::Light,
         IntegratorKind::Mixture,
-        IntegratorKind::Mis,
     ];
-    for (scene, built) in [("lamp", box_with_hole()), ("sky", box_under_sky())] {
+    // Few paths find the sky through the hole: those scenes take more samples.
+    for (scene, built, spp) in [("lamp", box_with_hole(), 8), ("sky", box_under_sky(), 128)] {
         for kind in kinds {
             let tree = SdTree::new((Vec3::splat(-1.0), Vec3::new(1.0, 1.5, 1.0)));
             let unguided = PathTracer::new(&built.scene, &built.accel, 8, kind);
@@ -671,25 +673,42 @@ fn a_guided_path_drawing_nothing_from_the_guide_is_the_unguided_one() {
             let camera = inside_camera(16);
             let (mut records, mut draws) = (Vec::new(), Vec::new());
             let mut count = RayCount::default();
-            // `bsdf` under the lamp finds it through the hole by chance only (12 of
-            // the 2048 paths), the others hundreds of times.
             let mut lit = 0;
             for pixel in 0..256u64 {
-                for s in 0..8 {
+                for s in 0..spp {
                     let (ray, mut rng) = camera_sample(&camera, 7, pixel, s);
                     let plain = unguided.sample(ray, &mut rng, &mut count).radiance;
                     let (ray, mut rng) = camera_sample(&camera, 7, pixel, s);
                     let mut recorder = PathRecords::new(&mut records, &mut draws, 1.0);
                     let measured = guided.sample_recorded(ray, &mut rng, &mut count, &mut recorder);
-                    assert_eq!(
-                        measured.radiance, plain,
-                        "{kind:?} under the {scene}, pixel {pixel}, sample {s}"
+                    // Under the sky the guided light sample's density is the sky
+                    // mixture's with share 0, the same number by other arithmetic:
+                    // equal to rounding, where other random numbers would differ
+                    // wholly. Under the lamp, to the bit.
+                    let tolerance = if scene == "sky" { 1e-5 } else { 0.0 };
+                    assert!(
+                        (measured.radiance - plain).abs().max_element()
+                            <= tolerance * plain.max_element(),
+                        "{kind:?} under the {scene}, pixel {pixel}, sample {s}: {} against {plain}",
+                        measured.radiance
                     );
                     lit += usize::from(plain != Vec3::ZERO);
                 }
             }
+            // About half of what each found (of 2048 paths under the lamp, 32768
+            // under the sky): `bsdf` finds the lamp through the hole by chance only,
+            // and `mixture` ends a path at a void light draw.
+            let enough = match (kind, scene) {
+                (IntegratorKind::Bsdf, "lamp") => 5,
+                (IntegratorKind::Mixture, "lamp") => 100,
+                (_, "lamp") => 500,
+                (IntegratorKind::Mis, _) => 300,
+                (IntegratorKind::Bsdf, _) => 200,
+                (IntegratorKind::Light, _) => 70,
+                (IntegratorKind::Mixture, _) => 50,
+            };
             assert!(
-                lit > 5,
+                lit > enough,
                 "{kind:?} under the {scene}: the paths find light ({lit} of 2048)"
             );
             assert!(
