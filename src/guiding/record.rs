@@ -1,8 +1,20 @@
 //! What a training path leaves behind: for each non-delta vertex, the radiance that
 //! arrived along the direction it scattered into, and for each light sample, the
-//! radiance that arrived along the light's direction (the [`Record`]s the guide's
-//! distributions are learnt from); and, at guided vertices, how each such direction
-//! was drawn (the [`GuidedDraw`]s the guide's shares are learnt from).
+//! radiance that arrived along the light's direction, each times the cosine at the
+//! vertex (the [`Record`]s the guide's distributions are learnt from); and, at guided
+//! vertices, how each such direction was drawn (the [`GuidedDraw`]s the guide's
+//! shares are learnt from).
+//!
+//! Why the cosine: a guided direction is worth what the integrand `f·cos·L` gives
+//! along it, and of that the guide can learn only what every vertex of a region
+//! shares. `L` alone makes it send as many draws into grazing light as into light
+//! from above, which a diffuse surface turns to almost nothing; `L·|cos|` is the
+//! integrand of every diffuse vertex up to its albedo, and it stays a distribution
+//! the quadtree holds exactly. The full `f·cos·L` is not shared: a glossy lobe
+//! follows each vertex's own `wo`. Per sample, seeds 11–14, against the same
+//! renders learning `L` (2026-12-04): room 3.5–6.0% lower relMSE, staircase 3.8% and
+//! 15%, Cornell Original 5.4%, GlossyMix 8–10%; `f·cos·L` gave GlossyMix 12% but
+//! the room 0–3% and the Original 1% (README, "An eleventh sitting").
 
 use glam::Vec3;
 
@@ -14,8 +26,8 @@ use crate::sampling::mix64;
 const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
-/// `value` is its estimate (mean over colour channels) over the density with which
-/// `dir` was drawn. Where the light along `dir` came from the sky directly, `sky` is
+/// `value` is its estimate (mean over colour channels) times the cosine of `dir` to
+/// the vertex's normal, over the density with which `dir` was drawn. Where the light along `dir` came from the sky directly, `sky` is
 /// what that sky adds to the estimate at `p`, `f·cos · Le` times its MIS weight (mean
 /// over colour channels), over the same density: for a light sample that found the
 /// sky, and for a vertex whose scattered ray met it (0 for every other record). The
@@ -105,13 +117,15 @@ pub trait PathRecorder {
     /// with its guide even where its region learnt not to use it, since the draws are
     /// what the region's shares are learnt from (see `VertexGuide::guides`).
     const RECORDS: bool;
-    /// The path left the non-delta vertex `p` along `dir`, drawn with density `pdf`,
-    /// and its throughput is now `throughput`: what it adds from now on, divided by
-    /// that throughput, is the radiance that arrived along `dir`. At a guided vertex,
-    /// `mixture` gives the draw's [`MixtureTerms`] (evaluated only if asked for).
+    /// The path left the non-delta vertex `p` of unit shading normal `normal` along
+    /// `dir`, drawn with density `pdf`, and its throughput is now `throughput`: what it
+    /// adds from now on, divided by that throughput, is the radiance that arrived along
+    /// `dir`. At a guided vertex, `mixture` gives the draw's [`MixtureTerms`]
+    /// (evaluated only if asked for).
     fn scattered(
         &mut self,
         p: Vec3,
+        normal: Vec3,
         dir: Vec3,
         pdf: f32,
         throughput: Vec3,
@@ -125,14 +139,16 @@ pub trait PathRecorder {
     fn met_sky(&mut self, contribution: Vec3) {
         self.added(contribution);
     }
-    /// A light sample at `p` along `dir` found `incident_over_pdf` (radiance times its
-    /// MIS weight, over the light sample's density) and, if it found the sky,
+    /// A light sample at `p` (of unit shading normal `normal`) along `dir` found
+    /// `incident_over_pdf` (radiance times its MIS weight, over the light sample's
+    /// density) and, if it found the sky,
     /// `sky_integrand_over_pdf` (the same times the BSDF's `f·cos`; 0 otherwise);
     /// `sky` gives the draw of a sky sample at a guided vertex (evaluated only if
     /// asked for).
     fn light_sample(
         &mut self,
         p: Vec3,
+        normal: Vec3,
         dir: Vec3,
         incident_over_pdf: Vec3,
         sky_integrand_over_pdf: Vec3,
@@ -156,6 +172,7 @@ impl PathRecorder for NoRecords {
         &mut self,
         _: Vec3,
         _: Vec3,
+        _: Vec3,
         _: f32,
         _: Vec3,
         _: impl FnOnce() -> Option<MixtureTerms>,
@@ -170,6 +187,7 @@ impl PathRecorder for NoRecords {
         _: Vec3,
         _: Vec3,
         _: Vec3,
+        _: Vec3,
         _: impl FnOnce() -> Option<MixtureDraw>,
     ) {
     }
@@ -180,6 +198,8 @@ impl PathRecorder for NoRecords {
 #[derive(Clone, Copy, Default)]
 struct Open {
     p: Vec3,
+    /// `|cos|` of `dir` to the vertex's shading normal.
+    cos: f32,
     dir: Vec3,
     pdf: f32,
     throughput: Vec3,
@@ -235,6 +255,7 @@ impl PathRecorder for PathRecords<'_> {
     fn scattered(
         &mut self,
         p: Vec3,
+        normal: Vec3,
         dir: Vec3,
         pdf: f32,
         throughput: Vec3,
@@ -243,6 +264,7 @@ impl PathRecorder for PathRecords<'_> {
         if self.len < MAX_OPEN && pdf > 0.0 {
             self.open[self.len] = Open {
                 p,
+                cos: dir.dot(normal).abs(),
                 dir,
                 pdf,
                 throughput,
@@ -274,12 +296,13 @@ impl PathRecorder for PathRecords<'_> {
     fn light_sample(
         &mut self,
         p: Vec3,
+        normal: Vec3,
         dir: Vec3,
         incident_over_pdf: Vec3,
         sky_integrand_over_pdf: Vec3,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     ) {
-        let value = channel_mean(incident_over_pdf);
+        let value = channel_mean(incident_over_pdf) * dir.dot(normal).abs();
         if value.is_finite() {
             let sky_value = channel_mean(sky_integrand_over_pdf);
             let sky_value = if sky_value.is_finite() {
@@ -306,7 +329,7 @@ impl PathRecorder for PathRecords<'_> {
     fn finish(&mut self) {
         for i in 0..self.len {
             let v = self.open[i];
-            let value = channel_mean(v.radiance) / v.pdf;
+            let value = channel_mean(v.radiance) * v.cos / v.pdf;
             if value.is_finite() {
                 self.records.push(Record {
                     p: v.p,
@@ -366,39 +389,42 @@ mod tests {
 
     /// A vertex's record holds all the light its ray found over the ray's density, and
     /// its `sky` only the sky that very ray met; a light sample's record holds the sky
-    /// it found, and nothing where it found an emitter.
+    /// it found, and nothing where it found an emitter. Every record's value is times
+    /// the cosine at its vertex; the `sky` values are integrands, which have it already.
     #[test]
     fn records_keep_the_sky_each_ray_met_apart() {
         let (mut records, mut draws) = (Vec::new(), Vec::new());
         let mut recorder = PathRecords::new(&mut records, &mut draws, 1.0);
         let (a, b) = (Vec3::ZERO, Vec3::X);
+        // The normals: `Y` is at cosine 0.8 to `a`'s, `Z` and `Y` at 0.8 and 0.6 to `b`'s.
+        let (na, nb) = (Vec3::new(0.6, 0.8, 0.0), Vec3::new(0.0, 0.6, 0.8));
         // Vertex `a` scatters with density 0.5 and meets a surface that emits 1, ...
-        recorder.scattered(a, Vec3::Y, 0.5, Vec3::ONE, no_terms);
+        recorder.scattered(a, na, Vec3::Y, 0.5, Vec3::ONE, no_terms);
         recorder.added(Vec3::ONE);
         // ... `b`, of throughput 0.25, whose light samples find an emitter (2 over
         // their density) and the sky (4 over their density, its integrand `f·cos·Le`
         // 2 over it); the path adds them times 0.25.
-        recorder.light_sample(b, Vec3::Z, Vec3::splat(2.0), Vec3::ZERO, || None);
+        recorder.light_sample(b, nb, Vec3::Z, Vec3::splat(2.0), Vec3::ZERO, || None);
         recorder.added(Vec3::splat(0.5));
-        recorder.light_sample(b, Vec3::Y, Vec3::splat(4.0), Vec3::splat(2.0), || None);
+        recorder.light_sample(b, nb, Vec3::Y, Vec3::splat(4.0), Vec3::splat(2.0), || None);
         recorder.added(Vec3::ONE);
         // `b` scatters with density 0.25 and `f·cos` 0.5, and its ray meets the sky,
         // 3 times `b`'s throughput of 0.25.
-        let terms = || Some((Vec3::splat(0.5), 0.25, Vec3::Y));
-        recorder.scattered(b, Vec3::Y, 0.25, Vec3::splat(0.25), terms);
+        let terms = || Some((Vec3::splat(0.5), 0.25, nb));
+        recorder.scattered(b, nb, Vec3::Y, 0.25, Vec3::splat(0.25), terms);
         recorder.met_sky(Vec3::splat(0.75));
         recorder.finish();
-        let record = |p, dir, value, sky| Record { p, dir, value, sky };
+        let record = |p, dir, value: f32, sky| Record { p, dir, value, sky };
         assert_eq!(
             records,
             [
-                record(b, Vec3::Z, 2.0, 0.0),
-                record(b, Vec3::Y, 4.0, 2.0),
+                record(b, Vec3::Z, 2.0 * 0.8, 0.0),
+                record(b, Vec3::Y, 4.0 * 0.6, 2.0),
                 // 1 + 0.5 + 1 + 0.75 arrived along `a`'s ray, over 0.5.
-                record(a, Vec3::Y, 6.5, 0.0),
+                record(a, Vec3::Y, 3.25 * 0.8 / 0.5, 0.0),
                 // 3 arrived along `b`'s ray, all of it sky (0.5 · 3 of the integrand),
                 // over 0.25.
-                record(b, Vec3::Y, 12.0, 6.0),
+                record(b, Vec3::Y, 3.0 * 0.6 / 0.25, 6.0),
             ]
         );
     }

@@ -276,8 +276,8 @@ pub struct SdTree {
     /// [`Leaf`] spans four cache lines: every vertex reads them, to know whether its
     /// region guides at all.
     shares: Vec<[f32; 2]>,
-    /// Each leaf's estimate of the light arriving at a point in it, `∫ L dω` over
-    /// the sphere (see [`incident_estimate`]); 0 where nothing was learnt.
+    /// Each leaf's estimate of the light arriving at a point in it, `∫ L |cos θ| dω`
+    /// (see [`incident_estimate`]); 0 where nothing was learnt.
     incident: Vec<f32>,
 }
 
@@ -384,13 +384,14 @@ impl SdTree {
         self.shares[self.leaf_of(p)][1]
     }
 
-    /// The estimate of `∫ L dω` at `p` its region learnt (see [`incident_estimate`]).
+    /// The estimate of `∫ L |cos θ| dω` at `p` its region learnt (see
+    /// [`incident_estimate`]).
     pub fn incident_at(&self, p: Vec3) -> f32 {
         self.incident[self.leaf_of(p)]
     }
 
-    /// Adds a record: `value` (incident radiance over the density of its direction)
-    /// arrived at `p` from the unit direction `d`. The record counts in the leaf of
+    /// Adds a record: `value` (incident radiance times the cosine at its vertex, over
+    /// the density of its direction) arrived at `p` from the unit direction `d`. The record counts in the leaf of
     /// `p` only; its value is spread by box filters over space and direction (see
     /// [`route`](Self::route)).
     pub fn deposit(&mut self, record: &Record) {
@@ -607,9 +608,10 @@ impl SdTree {
 /// light sample (see [`crate::guiding::PathRecorder`]).
 pub const RECORDS_PER_VERTEX: f64 = 2.0;
 
-/// A leaf's estimate of `∫ L dω`, the light arriving at a point in it from the whole
-/// sphere: the sum of the values deposited in it (each an estimate of incident
-/// radiance over the density of its direction) per vertex that recorded in it, taking
+/// A leaf's estimate of `∫ L |cos θ| dω`, the irradiance of a point in it, `θ` the
+/// angle to the surface's normal: the sum of the values deposited in it (each an
+/// estimate of incident radiance times that cosine over the density of its direction;
+/// see [`Record`]) per vertex that recorded in it, taking
 /// [`RECORDS_PER_VERTEX`] records a vertex. Rough by design: the values of
 /// neighbouring regions are spread into it by the spatial filter, light samples that
 /// found an emitter hidden leave no record, and a vertex near the end of a path may

@@ -33,7 +33,7 @@ pub struct VertexGuide<'a> {
     /// Probability of drawing a sky sample from the guide rather than the sky's own
     /// distribution.
     sky_share: f32,
-    /// The region's estimate of `∫ L dω`, the light arriving from the whole sphere
+    /// The region's estimate of `∫ L |cos θ| dω`, the irradiance of its surfaces
     /// (see [`SdTree::incident_at`](super::SdTree::incident_at)).
     incident: f32,
 }
@@ -63,14 +63,14 @@ impl<'a> VertexGuide<'a> {
         self
     }
 
-    /// This guide, its region's estimate of `∫ L dω` being `incident`.
+    /// This guide, its region's estimate of `∫ L |cos θ| dω` being `incident`.
     #[inline]
     pub fn with_incident(mut self, incident: f32) -> Self {
         self.incident = incident;
         self
     }
 
-    /// The region's estimate of `∫ L dω` (0 where it learnt none).
+    /// The region's estimate of `∫ L |cos θ| dω` (0 where it learnt none).
     #[inline]
     pub fn incident(&self) -> f32 {
         self.incident

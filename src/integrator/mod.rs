@@ -448,7 +448,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             ray_recorded = step.mixture.is_some();
             if ray_recorded {
                 let mixture = || step.mixture;
-                recorder.scattered(surface.p, step.dir, step.pdf, throughput, mixture);
+                let (p, n) = (surface.p, surface.ns);
+                recorder.scattered(p, n, step.dir, step.pdf, throughput, mixture);
             }
             if throughput == Vec3::ZERO {
                 break;
@@ -587,7 +588,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let unlit = |recorder: &mut R| {
             if let (GuidedLightDraw::Sky(_), Some(guide)) = (&drawn, guide) {
                 let draw = || Some(MixtureDraw::unlit(guide.normal()));
-                recorder.light_sample(surface.p, drawn.dir(), Vec3::ZERO, Vec3::ZERO, draw);
+                let (p, n, dir) = (surface.p, surface.ns, drawn.dir());
+                recorder.light_sample(p, n, dir, Vec3::ZERO, Vec3::ZERO, draw);
             }
             Vec3::ZERO
         };
@@ -624,6 +626,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         };
         recorder.light_sample(
             surface.p,
+            surface.ns,
             light.dir,
             light.emission * (weight / light.pdf),
             sky_integrand_over_pdf,

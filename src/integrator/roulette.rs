@@ -8,8 +8,8 @@
 //! sofa, and a dim one may be about to find the sunlit floor. The trained guide knows
 //! roughly how much light arrives in every region (`SdTree::incident_at`), so a
 //! vertex can estimate what the path will still add: its throughput, times its BSDF's
-//! albedo, times the region's `∫ L dω` over 2π (the radiance a diffuse surface
-//! reflects under light spread evenly over its hemisphere). The same estimate at the
+//! albedo, times the region's irradiance `∫ L |cos θ| dω` over π (the radiance a
+//! diffuse surface reflects). The same estimate at the
 //! path's first non-delta vertex, plus the light found before it, stands for the
 //! pixel's value. Where the ratio of the two falls below [`DIM_RATIO`], the path goes
 //! on with probability [`DIM_SURVIVAL`] and its weight is divided by it; elsewhere it
@@ -96,12 +96,12 @@ impl AdjointRoulette {
 
 /// What a path of throughput `throughput` at a vertex whose BSDF reflects `albedo` is
 /// expected to add from there on (mean over channels), where the vertex's region
-/// learnt the estimate `incident` of `∫ L dω`: the radiance a diffuse surface of that
-/// albedo reflects under that light spread evenly over its hemisphere,
-/// `albedo · (incident / 2π)`, times the throughput.
+/// learnt the estimate `incident` of its irradiance `∫ L |cos θ| dω`: the radiance a
+/// diffuse surface of that albedo reflects, `albedo · incident / π`, times the
+/// throughput.
 #[inline]
 pub fn expected_from(throughput: glam::Vec3, albedo: glam::Vec3, incident: f32) -> f32 {
-    channel_mean(throughput * albedo) * incident * (0.5 * std::f32::consts::FRAC_1_PI)
+    channel_mean(throughput * albedo) * incident * std::f32::consts::FRAC_1_PI
 }
 
 #[cfg(test)]
@@ -133,10 +133,10 @@ mod tests {
 
     #[test]
     fn the_expectation_is_a_diffuse_surfaces_reflection() {
-        // Radiance 2 from every direction of the upper hemisphere: ∫ L dω = 4π, and a
-        // white diffuse surface reflects 2 (the hemisphere's ∫ L cos / π), which at
-        // throughput ½ in one channel of three is a mean of 1/3.
-        let incident = 4.0 * std::f32::consts::PI;
+        // Radiance 2 from every direction of the upper hemisphere: ∫ L cos dω = 2π,
+        // and a white diffuse surface reflects 2 (that over π), which at throughput ½
+        // in one channel of three is a mean of 1/3.
+        let incident = 2.0 * std::f32::consts::PI;
         let e = expected_from(Vec3::new(0.5, 0.0, 0.0), Vec3::ONE, incident);
         assert!((e - 1.0 / 3.0).abs() < 1e-6, "{e}");
     }
