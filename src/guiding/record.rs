@@ -11,10 +11,11 @@
 //! from above, which a diffuse surface turns to almost nothing; `L·|cos|` is the
 //! integrand of every diffuse vertex up to its albedo, and it stays a distribution
 //! the quadtree holds exactly. The full `f·cos·L` is not shared: a glossy lobe
-//! follows each vertex's own `wo`. Per sample, seeds 11–14, against the same
-//! renders learning `L` (2026-12-04): room 3.5–6.0% lower relMSE, staircase 3.8% and
-//! 15%, Cornell Original 5.4%, GlossyMix 8–10%; `f·cos·L` gave GlossyMix 12% but
-//! the room 0–3% and the Original 1% (README, "An eleventh sitting").
+//! follows each vertex's own `wo`. Per sample against the same renders learning `L`
+//! (2026-12-04, paired seeds): room 1.2–3.3% lower relMSE (seeds 11–14), staircase
+//! 3.8%, 13.5% and 5.0% lower and 3.5% higher, Cornell Original 5.4% and GlossyMix
+//! 8–10% (seeds 11, 12); `f·cos·L` gave GlossyMix 12% but the room −1.3% and +3.3%
+//! and the Original 1% (README, "An eleventh sitting").
 
 use glam::Vec3;
 
@@ -26,15 +27,15 @@ use crate::sampling::mix64;
 const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
-/// `value` is its estimate (mean over colour channels) times the cosine of `dir` to
-/// the vertex's normal, over the density with which `dir` was drawn. Where the light along `dir` came from the sky directly, `sky` is
-/// what that sky adds to the estimate at `p`, `f·cos · Le` times its MIS weight (mean
-/// over colour channels), over the same density: for a light sample that found the
-/// sky, and for a vertex whose scattered ray met it (0 for every other record). The
-/// region's sky distribution learns from these, the integrand of its sky samples:
-/// light samples and scattered rays together estimate all the sky it sees, weighed
-/// by how much of it the BSDFs there turn on along the path (the cosine, a glossy
-/// lobe).
+/// `value` is its estimate (mean over colour channels) times the cosine of `dir` to the
+/// vertex's normal, over the density with which `dir` was drawn. Where the light along
+/// `dir` came from the sky directly, `sky` is what that sky adds to the estimate at
+/// `p`, `f·cos · Le` times its MIS weight (mean over colour channels), over the same
+/// density: for a light sample that found the sky, and for a vertex whose scattered ray
+/// met it (0 for every other record). The region's sky distribution learns from these,
+/// the integrand of its sky samples: light samples and scattered rays together estimate
+/// all the sky it sees, weighed by how much of it the BSDFs there turn on along the
+/// path (the cosine, a glossy lobe).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
@@ -141,10 +142,9 @@ pub trait PathRecorder {
     }
     /// A light sample at `p` (of unit shading normal `normal`) along `dir` found
     /// `incident_over_pdf` (radiance times its MIS weight, over the light sample's
-    /// density) and, if it found the sky,
-    /// `sky_integrand_over_pdf` (the same times the BSDF's `f·cos`; 0 otherwise);
-    /// `sky` gives the draw of a sky sample at a guided vertex (evaluated only if
-    /// asked for).
+    /// density) and, if it found the sky, `sky_integrand_over_pdf` (the same times the
+    /// BSDF's `f·cos`; 0 otherwise); `sky` gives the draw of a sky sample at a guided
+    /// vertex (evaluated only if asked for).
     fn light_sample(
         &mut self,
         p: Vec3,

@@ -391,9 +391,9 @@ impl SdTree {
     }
 
     /// Adds a record: `value` (incident radiance times the cosine at its vertex, over
-    /// the density of its direction) arrived at `p` from the unit direction `d`. The record counts in the leaf of
-    /// `p` only; its value is spread by box filters over space and direction (see
-    /// [`route`](Self::route)).
+    /// the density of its direction) arrived at `p` from the unit direction `d`. The
+    /// record counts in the leaf of `p` only; its value is spread by box filters over
+    /// space and direction (see [`route`](Self::route)).
     pub fn deposit(&mut self, record: &Record) {
         let route = self.route(record);
         self.leaves[route.home as usize].records += 1;

@@ -9,9 +9,8 @@
 //! roughly how much light arrives in every region (`SdTree::incident_at`), so a
 //! vertex can estimate what the path will still add: its throughput, times its BSDF's
 //! albedo, times the region's irradiance `∫ L |cos θ| dω` over π (the radiance a
-//! diffuse surface reflects). The same estimate at the
-//! path's first non-delta vertex, plus the light found before it, stands for the
-//! pixel's value. Where the ratio of the two falls below [`DIM_RATIO`], the path goes
+//! diffuse surface reflects). The same estimate at the path's first non-delta vertex,
+//! plus the light found before it, stands for the pixel's value. Where the ratio of the two falls below [`DIM_RATIO`], the path goes
 //! on with probability [`DIM_SURVIVAL`] and its weight is divided by it; elsewhere it
 //! goes on. The estimate only decides the probability, and a surviving path is
 //! divided by it, so the image stays unbiased however rough the estimate is. As the
