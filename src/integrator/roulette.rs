@@ -6,21 +6,22 @@
 //! the throughput alone, which says nothing about where the light is: in a room lit
 //! through its windows, a path whose throughput is high may be bouncing behind the
 //! sofa, and a dim one may be about to find the sunlit floor. The trained guide knows
-//! roughly how much light arrives in every region (`SdTree::incident_at`), so a
-//! vertex can estimate what the path will still add: its throughput, times its BSDF's
-//! albedo, times the region's irradiance `∫ L |cos θ| dω` over π (the radiance a
-//! diffuse surface reflects). The same estimate at the path's first non-delta vertex,
-//! plus the light found before it, stands for the pixel's value. Where the ratio of the two falls below [`DIM_RATIO`], the path goes
-//! on with probability [`DIM_SURVIVAL`] and its weight is divided by it; elsewhere it
-//! goes on. The estimate only decides the probability, and a surviving path is
-//! divided by it, so the image stays unbiased however rough the estimate is. As the
-//! weight grows with each survival, so does the estimate, and a path is halved only
-//! until it carries a sixth of its pixel again; but where the guide saw next to no
-//! light the estimate stays near 0 whatever the weight, so a path is halved at most
-//! [`MAX_HALVINGS`] times, and the ordinary roulette decides after that. Without that
-//! bound, one staircase render in six (seed 15) had a firefly that held 41% of its
-//! error in 9 pixels (relMSE 3.88e-3 against 2.24–2.51e-3 for the other seeds); with
-//! it, seeds 11–16 gave 2.31–2.43e-3 and the room's error did not grow.
+//! roughly how much light arrives in every region (`SdTree::incident_at`), so a vertex
+//! can estimate what the path will still add: its throughput, times its BSDF's albedo,
+//! times the region's irradiance `∫ L |cos θ| dω` over π (the radiance a diffuse
+//! surface reflects). The same estimate at the path's first non-delta vertex, plus the
+//! light found before it, stands for the pixel's value. Where the ratio of the two
+//! falls below [`DIM_RATIO`], the path goes on with probability [`DIM_SURVIVAL`] and
+//! its weight is divided by it; elsewhere it goes on. The estimate only decides the
+//! probability, and a surviving path is divided by it, so the image stays unbiased
+//! however rough the estimate is. As the weight grows with each survival, so does the
+//! estimate, and a path is halved only until it carries a sixth of its pixel again; but
+//! where the guide saw next to no light the estimate stays near 0 whatever the weight,
+//! so a path is halved at most [`MAX_HALVINGS`] times, and the ordinary roulette
+//! decides after that. Without that bound, one staircase render in six (seed 15) had a
+//! firefly that held 41% of its error in 9 pixels (relMSE 3.88e-3 against 2.24–2.51e-3
+//! for the other seeds); with it, seeds 11–16 gave 2.31–2.43e-3 and the room's error
+//! did not grow.
 //!
 //! Training's iterations after the first play it too, with the tree of the iteration
 //! before (a record divides what its path found by the path's throughput, so it stays
