@@ -17,7 +17,7 @@ use ember::accel::{AccelKind, Ray};
 use ember::film::Film;
 use ember::guiding::{
     cosine_mass_in_cone, direction_to_square, mass_in_cone, square_to_direction, Draw, GuidedDraw,
-    Guiding, MixtureDraw, PathRecords, QuadTree, Record, SdTree, VertexGuide, GUIDED_COST,
+    Guiding, MixtureDraw, PathRecords, QuadTree, Record, SdTree, Shadow, VertexGuide, GUIDED_COST,
     GUIDE_PROBABILITY, MIN_SELECTION_DRAWS, SELECTION_CHOICES, SKY_SHARE_CHOICES,
     SPLIT_REFERENCE_PIXELS,
 };
@@ -280,7 +280,9 @@ fn filled_towards(lobe: Vec3) -> SdTree {
             p: Vec3::ZERO,
             dir,
             value,
+            direct: 0.0,
             sky: 0.0,
+            shadow: Shadow::Untested,
         });
     }
     tree
@@ -308,14 +310,18 @@ fn a_region_learns_the_light_arriving_at_it() {
             p,
             dir,
             value,
+            direct: 0.0,
             sky: 0.0,
+            shadow: Shadow::Untested,
         });
         let light = uniform_sphere(rng.f32(), rng.f32());
         tree.deposit(&Record {
             p,
             dir: light,
             value: 0.0,
+            direct: 0.0,
             sky: 0.0,
+            shadow: Shadow::Untested,
         });
     }
     assert_eq!(ember::guiding::RECORDS_PER_VERTEX, 2.0);
@@ -840,6 +846,51 @@ fn guide_learns_the_way_to_the_light_through_a_hole() {
         eprintln!("floor at {p}: mass towards the hole {guided:.3} guided, {cosine:.4} cosine");
         assert!(
             guided > 3.0 * cosine,
+            "at {p}: guided mass {guided:.4} against the cosine's {cosine:.4}"
+        );
+    }
+}
+
+/// The box of [`box_with_hole`] closed, its lamp hung inside under the ceiling: seen
+/// from all of the floor.
+fn box_with_lamp_inside() -> Built {
+    let mut tris = inward_cube(8, 0);
+    let y = 0.9;
+    tris.extend(quad(
+        Vec3::new(-0.2, y, -0.2),
+        Vec3::new(0.45, y, -0.2),
+        Vec3::new(0.45, y, 0.45),
+        Vec3::new(-0.2, y, 0.45),
+        1,
+    ));
+    build(
+        &tris,
+        vec![
+            diffuse(Vec3::splat(0.5), Vec3::ZERO),
+            diffuse(Vec3::ZERO, Vec3::splat(40.0)),
+        ],
+    )
+}
+
+/// Where the light samples find the lamp, the guide leaves its direct light to them
+/// and learns the light the walls reflect: on the floor of a closed box whose lamp
+/// hangs in plain sight (and whose back is black, and the ceiling behind it unlit),
+/// it puts no more mass in the cone towards the lamp than the floor's cosine density
+/// does, where through the hole above (whose lamp the light samples mostly miss) it
+/// put more than three times as much.
+#[test]
+fn guide_leaves_a_lamp_in_plain_sight_to_the_light_samples() {
+    let built = box_with_lamp_inside();
+    let tree = train(&built, &guided_settings(128, 1, 6));
+    let lamp = Vec3::new(0.125, 0.9, 0.125);
+    for p in FLOOR_POINTS {
+        let axis = (lamp - p).normalize();
+        let half_angle = 12f32.to_radians();
+        let guided = mass_in_cone(&|d| tree.at(p).pdf(d), axis, half_angle);
+        let cosine = cosine_mass_in_cone(Vec3::Y, axis, half_angle);
+        eprintln!("floor at {p}: mass towards the lamp {guided:.3} guided, {cosine:.4} cosine");
+        assert!(
+            guided < cosine,
             "at {p}: guided mass {guided:.4} against the cosine's {cosine:.4}"
         );
     }

@@ -6,7 +6,9 @@
 //! - Training ([`crate::render`]'s pre-pass): iteration `k` renders `2^k` samples per
 //!   pixel guided by the tree of iteration `k − 1` (the first by the uniform tree), and
 //!   every non-delta vertex of its paths deposits the incident radiance it found
-//!   (divided by the density of its direction) into a cleared copy; that copy,
+//!   (times the cosine at the vertex, divided by the density of its direction; of an
+//!   emitter's direct light, only as much as the region's light samples miss it:
+//!   [`SdTree::deposit`]) into a cleared copy; that copy,
 //!   refined ([`SdTree::refined`]), is the next tree. The records are folded in tile
 //!   order, so the tree does not depend on the number of threads.
 //!   Records are spread by Müller et al.'s box filters: in space as they do it, to
@@ -42,12 +44,13 @@ pub use quadtree::{
     SquareCell, MAX_QUAD_DEPTH, SUBDIVISION_SHARE,
 };
 pub use record::{
-    Draw, GuidedDraw, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords, Record,
+    Draw, GuidedDraw, LightFound, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, PathRecords,
+    Record, Shadow,
 };
 pub use sdtree::{
     split_threshold, SdTree, GUIDED_COST, MAX_SPATIAL_NODES, MIN_LIT_DRAWS, MIN_SELECTION_DRAWS,
-    RECORDS_PER_VERTEX, SELECTION_CHOICES, SKY_SHARE_CHOICES, SPLIT_RECORDS_PER_SQRT_SPP,
-    SPLIT_REFERENCE_PIXELS,
+    MIN_SHADOW_TESTS, RECORDS_PER_VERTEX, SELECTION_CHOICES, SKY_SHARE_CHOICES,
+    SPLIT_RECORDS_PER_SQRT_SPP, SPLIT_REFERENCE_PIXELS,
 };
 pub use vertex::VertexGuide;
 

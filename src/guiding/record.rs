@@ -27,21 +27,53 @@ use crate::sampling::mix64;
 const MAX_OPEN: usize = 32;
 
 /// One training record: at `p`, radiance arrived from the unit direction `dir`, and
-/// `value` is its estimate (mean over colour channels) times the cosine of `dir` to the
-/// vertex's normal, over the density with which `dir` was drawn. Where the light along
-/// `dir` came from the sky directly, `sky` is what that sky adds to the estimate at
-/// `p`, `f·cos · Le` times its MIS weight (mean over colour channels), over the same
-/// density: for a light sample that found the sky, and for a vertex whose scattered ray
-/// met it (0 for every other record). The region's sky distribution learns from these,
-/// the integrand of its sky samples: light samples and scattered rays together estimate
-/// all the sky it sees, weighed by how much of it the BSDFs there turn on along the
-/// path (the cosine, a glossy lobe).
+/// `value + direct` is its estimate (mean over colour channels) times the cosine of
+/// `dir` to the vertex's normal, over the density with which `dir` was drawn: `direct`
+/// the part an emitter sent straight to `p` that next-event estimation samples too
+/// (found by a light sample, or by the vertex's own ray where the integrator also
+/// samples lights), `value` the rest. Where the light along `dir` came from the sky
+/// directly, `sky` is what that sky adds to the estimate at `p`, `f·cos · Le` times its
+/// MIS weight (mean over colour channels), over the same density: for a light sample
+/// that found the sky, and for a vertex whose scattered ray met it (0 for every other
+/// record). The region's sky distribution learns from these, the integrand of its sky
+/// samples: light samples and scattered rays together estimate all the sky it sees,
+/// weighed by how much of it the BSDFs there turn on along the path (the cosine, a
+/// glossy lobe). `shadow` says whether the record is a light sample of an emitter,
+/// and whether its shadow ray was clear: what a region learns how much of `direct` its
+/// guide must carry from (see [`SdTree::deposit`](super::SdTree::deposit)).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
     pub dir: Vec3,
     pub value: f32,
+    pub direct: f32,
     pub sky: f32,
+    pub shadow: Shadow,
+}
+
+/// Whether a [`Record`] is an emitter's light sample, and what its shadow ray found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Shadow {
+    /// Not an emitter's light sample (a scattered direction, or the sky's sample).
+    Untested,
+    /// An emitter's light sample whose shadow ray was clear.
+    Clear,
+    /// An emitter's light sample whose shadow ray was blocked.
+    Blocked,
+}
+
+/// What a light sample found, each radiance times its MIS weight over the sample's
+/// density.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightFound {
+    /// The sky, and the same times the BSDF's `f·cos` (its integrand).
+    Sky { incident: Vec3, integrand: Vec3 },
+    /// An emitter, its shadow ray clear.
+    Emitter(Vec3),
+    /// An emitter behind something.
+    EmitterBlocked,
+    /// Nothing: a sky sample blocked or below the surface.
+    Nothing,
 }
 
 /// How a guided vertex at `p` drew the direction `dir` from a mixture with its guide:
@@ -140,18 +172,21 @@ pub trait PathRecorder {
     fn met_sky(&mut self, contribution: Vec3) {
         self.added(contribution);
     }
+    /// The path's estimate grew by `contribution`, the emission that the ray scattered
+    /// by the last call to [`scattered`](Self::scattered) met, of an emitter that the
+    /// vertex's light samples also draw (its record's [`Record::direct`]).
+    fn met_emitter(&mut self, contribution: Vec3) {
+        self.added(contribution);
+    }
     /// A light sample at `p` (of unit shading normal `normal`) along `dir` found
-    /// `incident_over_pdf` (radiance times its MIS weight, over the light sample's
-    /// density) and, if it found the sky, `sky_integrand_over_pdf` (the same times the
-    /// BSDF's `f·cos`; 0 otherwise); `sky` gives the draw of a sky sample at a guided
-    /// vertex (evaluated only if asked for).
+    /// `found`; `sky` gives the draw of a sky sample at a guided vertex (evaluated only
+    /// if asked for).
     fn light_sample(
         &mut self,
         p: Vec3,
         normal: Vec3,
         dir: Vec3,
-        incident_over_pdf: Vec3,
-        sky_integrand_over_pdf: Vec3,
+        found: LightFound,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     );
     /// A sky direction `dir` drawn at the guided vertex `p` otherwise than by a light
@@ -186,8 +221,7 @@ impl PathRecorder for NoRecords {
         _: Vec3,
         _: Vec3,
         _: Vec3,
-        _: Vec3,
-        _: Vec3,
+        _: LightFound,
         _: impl FnOnce() -> Option<MixtureDraw>,
     ) {
     }
@@ -206,6 +240,8 @@ struct Open {
     radiance: Vec3,
     /// Of `radiance`, the sky its own ray met.
     sky: Vec3,
+    /// Of `radiance`, the emission its own ray met of an emitter light samples draw.
+    emitter: Vec3,
     mixture: Option<MixtureTerms>,
 }
 
@@ -242,6 +278,14 @@ impl<'o> PathRecords<'o> {
         self.drawn
     }
 
+    /// The vertex whose ray was the last scattered, if it is recorded.
+    fn last_open(&mut self) -> Option<&mut Open> {
+        match self.last_open {
+            true => self.open[..self.len].last_mut(),
+            false => None,
+        }
+    }
+
     fn draw(&mut self, p: Vec3, dir: Vec3, draw: Draw) {
         self.drawn += 1;
         if keeps(p, dir, self.keep) {
@@ -270,6 +314,7 @@ impl PathRecorder for PathRecords<'_> {
                 throughput,
                 radiance: Vec3::ZERO,
                 sky: Vec3::ZERO,
+                emitter: Vec3::ZERO,
                 mixture: mixture(),
             };
             self.len += 1;
@@ -281,9 +326,15 @@ impl PathRecorder for PathRecords<'_> {
 
     fn met_sky(&mut self, contribution: Vec3) {
         self.added(contribution);
-        if self.last_open {
-            let v = &mut self.open[self.len - 1];
+        if let Some(v) = self.last_open() {
             v.sky = per_throughput(contribution, v.throughput);
+        }
+    }
+
+    fn met_emitter(&mut self, contribution: Vec3) {
+        self.added(contribution);
+        if let Some(v) = self.last_open() {
+            v.emitter = per_throughput(contribution, v.throughput);
         }
     }
 
@@ -298,24 +349,39 @@ impl PathRecorder for PathRecords<'_> {
         p: Vec3,
         normal: Vec3,
         dir: Vec3,
-        incident_over_pdf: Vec3,
-        sky_integrand_over_pdf: Vec3,
+        found: LightFound,
         sky: impl FnOnce() -> Option<MixtureDraw>,
     ) {
-        let value = channel_mean(incident_over_pdf) * dir.dot(normal).abs();
-        if value.is_finite() {
-            let sky_value = channel_mean(sky_integrand_over_pdf);
-            let sky_value = if sky_value.is_finite() {
-                sky_value
-            } else {
-                0.0
-            };
-            self.records.push(Record {
-                p,
-                dir,
-                value,
-                sky: sky_value,
-            });
+        let cos = dir.dot(normal).abs();
+        let record = |value: f32, direct: f32, sky: f32, shadow| Record {
+            p,
+            dir,
+            value,
+            direct,
+            sky,
+            shadow,
+        };
+        let record = match found {
+            LightFound::Sky {
+                incident,
+                integrand,
+            } => {
+                let sky = channel_mean(integrand);
+                record(
+                    channel_mean(incident) * cos,
+                    0.0,
+                    finite_or_0(sky),
+                    Shadow::Untested,
+                )
+            }
+            LightFound::Emitter(incident) => {
+                record(0.0, channel_mean(incident) * cos, 0.0, Shadow::Clear)
+            }
+            LightFound::EmitterBlocked => record(0.0, 0.0, 0.0, Shadow::Blocked),
+            LightFound::Nothing => record(0.0, 0.0, 0.0, Shadow::Untested),
+        };
+        if record.value.is_finite() && record.direct.is_finite() {
+            self.records.push(record);
             if let Some(m) = sky() {
                 self.draw(p, dir, Draw::Sky(m));
             }
@@ -329,16 +395,19 @@ impl PathRecorder for PathRecords<'_> {
     fn finish(&mut self) {
         for i in 0..self.len {
             let v = self.open[i];
-            let value = channel_mean(v.radiance) * v.cos / v.pdf;
-            if value.is_finite() {
+            let direct = channel_mean(v.emitter) * v.cos / v.pdf;
+            let value = channel_mean(v.radiance - v.emitter).max(0.0) * v.cos / v.pdf;
+            if value.is_finite() && direct.is_finite() {
                 self.records.push(Record {
                     p: v.p,
                     dir: v.dir,
                     value,
+                    direct,
                     sky: match v.mixture {
                         Some((f, _, _)) => channel_mean(f * v.sky) / v.pdf,
                         None => 0.0,
                     },
+                    shadow: Shadow::Untested,
                 });
                 if let Some((f, bsdf_pdf, normal)) = v.mixture {
                     let m = MixtureDraw::new(f * v.radiance, bsdf_pdf, 1.0, v.pdf, normal);
@@ -347,6 +416,14 @@ impl PathRecorder for PathRecords<'_> {
             }
         }
         self.len = 0;
+    }
+}
+
+fn finite_or_0(x: f32) -> f32 {
+    if x.is_finite() {
+        x
+    } else {
+        0.0
     }
 }
 
@@ -387,26 +464,40 @@ mod tests {
         None
     }
 
-    /// A vertex's record holds all the light its ray found over the ray's density, and
-    /// its `sky` only the sky that very ray met; a light sample's record holds the sky
-    /// it found, and nothing where it found an emitter. Every record's value is times
-    /// the cosine at its vertex; the `sky` values are integrands, which have it already.
+    /// A vertex's record holds the light its ray found over the ray's density: in
+    /// `direct` the emitter that very ray met, in `sky` only the sky it met (times the
+    /// BSDF), in `value` the rest. A light sample's record holds an emitter it found in
+    /// `direct` (and says its shadow ray was clear), a blocked one nothing (and says
+    /// so), the sky in `value` and its integrand in `sky`. Every record's `value` and
+    /// `direct` are times the cosine at its vertex; the `sky` values are integrands,
+    /// which have it already.
     #[test]
-    fn records_keep_the_sky_each_ray_met_apart() {
+    fn records_keep_the_direct_light_each_ray_met_apart() {
         let (mut records, mut draws) = (Vec::new(), Vec::new());
         let mut recorder = PathRecords::new(&mut records, &mut draws, 1.0);
         let (a, b) = (Vec3::ZERO, Vec3::X);
         // The normals: `Y` is at cosine 0.8 to `a`'s, `Z` and `Y` at 0.8 and 0.6 to `b`'s.
         let (na, nb) = (Vec3::new(0.6, 0.8, 0.0), Vec3::new(0.0, 0.6, 0.8));
-        // Vertex `a` scatters with density 0.5 and meets a surface that emits 1, ...
+        // Vertex `a` scatters with density 0.5 and meets an emitter of radiance 1, ...
         recorder.scattered(a, na, Vec3::Y, 0.5, Vec3::ONE, no_terms);
-        recorder.added(Vec3::ONE);
+        recorder.met_emitter(Vec3::ONE);
         // ... `b`, of throughput 0.25, whose light samples find an emitter (2 over
-        // their density) and the sky (4 over their density, its integrand `f·cos·Le`
-        // 2 over it); the path adds them times 0.25.
-        recorder.light_sample(b, nb, Vec3::Z, Vec3::splat(2.0), Vec3::ZERO, || None);
+        // their density), an emitter's sample blocked, and the sky (4 over their
+        // density, its integrand `f·cos·Le` 2 over it); the path adds them times 0.25.
+        recorder.light_sample(
+            b,
+            nb,
+            Vec3::Z,
+            LightFound::Emitter(Vec3::splat(2.0)),
+            || None,
+        );
         recorder.added(Vec3::splat(0.5));
-        recorder.light_sample(b, nb, Vec3::Y, Vec3::splat(4.0), Vec3::splat(2.0), || None);
+        recorder.light_sample(b, nb, Vec3::Z, LightFound::EmitterBlocked, || None);
+        let sky = LightFound::Sky {
+            incident: Vec3::splat(4.0),
+            integrand: Vec3::splat(2.0),
+        };
+        recorder.light_sample(b, nb, Vec3::Y, sky, || None);
         recorder.added(Vec3::ONE);
         // `b` scatters with density 0.25 and `f·cos` 0.5, and its ray meets the sky,
         // 3 times `b`'s throughput of 0.25.
@@ -414,17 +505,33 @@ mod tests {
         recorder.scattered(b, nb, Vec3::Y, 0.25, Vec3::splat(0.25), terms);
         recorder.met_sky(Vec3::splat(0.75));
         recorder.finish();
-        let record = |p, dir, value: f32, sky| Record { p, dir, value, sky };
+        let record = |p, dir, value: f32, direct: f32, sky, shadow| Record {
+            p,
+            dir,
+            value,
+            direct,
+            sky,
+            shadow,
+        };
         assert_eq!(
             records,
             [
-                record(b, Vec3::Z, 2.0 * 0.8, 0.0),
-                record(b, Vec3::Y, 4.0 * 0.6, 2.0),
-                // 1 + 0.5 + 1 + 0.75 arrived along `a`'s ray, over 0.5.
-                record(a, Vec3::Y, 3.25 * 0.8 / 0.5, 0.0),
+                record(b, Vec3::Z, 0.0, 2.0 * 0.8, 0.0, Shadow::Clear),
+                record(b, Vec3::Z, 0.0, 0.0, 0.0, Shadow::Blocked),
+                record(b, Vec3::Y, 4.0 * 0.6, 0.0, 2.0, Shadow::Untested),
+                // 1 + 0.5 + 1 + 0.75 arrived along `a`'s ray, over 0.5: the 1 its ray
+                // met directly, the rest (to `a`, `b`'s emitter is light reflected).
+                record(
+                    a,
+                    Vec3::Y,
+                    2.25 * 0.8 / 0.5,
+                    0.8 / 0.5,
+                    0.0,
+                    Shadow::Untested
+                ),
                 // 3 arrived along `b`'s ray, all of it sky (0.5 · 3 of the integrand),
                 // over 0.25.
-                record(b, Vec3::Y, 3.0 * 0.6 / 0.25, 6.0),
+                record(b, Vec3::Y, 3.0 * 0.6 / 0.25, 0.0, 6.0, Shadow::Untested),
             ]
         );
     }

@@ -41,7 +41,9 @@ use crate::accel::{Accel, Hit, Ray};
 use crate::bsdf::{Bsdf, BsdfSample};
 use crate::color::channel_mean;
 use crate::film::Sample;
-use crate::guiding::{MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide};
+use crate::guiding::{
+    LightFound, MixtureDraw, MixtureTerms, NoRecords, PathRecorder, SdTree, VertexGuide,
+};
 use crate::light::{
     BsdfPdf, GuidedLightDraw, GuidedLightPdf, LightPdf, LightSample, LightSampler,
     LightSamplerKind, LightTarget, MixturePdf, Pdf, Receiver,
@@ -346,7 +348,13 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             let surface = self.scene.surface(&current);
             let emitted = throughput * self.emission(&surface, &current, ray.dir, emission_weight);
             radiance += emitted;
-            recorder.added(emitted);
+            // Where the vertex the ray left took a light sample too, the emitter it met
+            // is light next-event estimation also carries (see `Record::direct`).
+            if ray_recorded && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis) {
+                recorder.met_emitter(emitted);
+            } else {
+                recorder.added(emitted);
+            }
             let wo = -ray.dir;
             if segment == self.max_depth {
                 if !passes_found {
@@ -584,18 +592,25 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let Some(drawn) = self.draw_light::<GUIDED>(at, guide, rng) else {
             return Vec3::ZERO;
         };
-        // Training learns a region's sky share from every sky sample, lit or not.
-        let unlit = |recorder: &mut R| {
-            if let (GuidedLightDraw::Sky(_), Some(guide)) = (&drawn, guide) {
-                let draw = || Some(MixtureDraw::unlit(guide.normal()));
-                let (p, n, dir) = (surface.p, surface.ns, drawn.dir());
-                recorder.light_sample(p, n, dir, Vec3::ZERO, Vec3::ZERO, draw);
+        // Training learns a region's sky share from every sky sample, lit or not, and
+        // how often its emitters' samples are blocked.
+        let unlit = |recorder: &mut R, tested: bool| {
+            let (p, n, dir) = (surface.p, surface.ns, drawn.dir());
+            match (&drawn, guide) {
+                (GuidedLightDraw::Sky(_), Some(guide)) => {
+                    let draw = || Some(MixtureDraw::unlit(guide.normal()));
+                    recorder.light_sample(p, n, dir, LightFound::Nothing, draw);
+                }
+                _ if tested && drawn.point().is_some() => {
+                    recorder.light_sample(p, n, dir, LightFound::EmitterBlocked, || None);
+                }
+                _ => {}
             }
             Vec3::ZERO
         };
         let (f, bsdf_pdf) = bsdf.eval_pdf(wo, drawn.dir());
         if f == Vec3::ZERO {
-            return unlit(recorder);
+            return unlit(recorder, false);
         }
         count.rays += 1;
         let shadow = match drawn.point() {
@@ -603,7 +618,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             None => surface.origin().spawn(drawn.dir()),
         };
         if self.accel.occluded(&shadow) {
-            return unlit(recorder);
+            return unlit(recorder, true);
         }
         // The normal the guide of a guided sky sample is folded about.
         let sky_normal = match (&drawn, guide) {
@@ -620,18 +635,19 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
-        let sky_integrand_over_pdf = match light.point {
-            None if R::RECORDS => f * light.emission * (weight / light.pdf),
-            _ => Vec3::ZERO,
-        };
-        recorder.light_sample(
-            surface.p,
-            surface.ns,
-            light.dir,
-            light.emission * (weight / light.pdf),
-            sky_integrand_over_pdf,
-            || sky_normal.map(|n| self.sky_draw(light.dir, light.pdf, n, f * light.emission)),
-        );
+        if R::RECORDS {
+            let incident = light.emission * (weight / light.pdf);
+            let found = match light.point {
+                None => LightFound::Sky {
+                    incident,
+                    integrand: f * light.emission * (weight / light.pdf),
+                },
+                Some(_) => LightFound::Emitter(incident),
+            };
+            recorder.light_sample(surface.p, surface.ns, light.dir, found, || {
+                sky_normal.map(|n| self.sky_draw(light.dir, light.pdf, n, f * light.emission))
+            });
+        }
         // In this order, as before guiding existed: unguided samples keep their bits.
         f * light.emission * (weight / light.pdf)
     }

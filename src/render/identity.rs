@@ -101,7 +101,7 @@ pub fn identity(
         [
             (
                 "guiding",
-                "sd-tree 12 (sky samples following a quadtree of the sky seen directly, adjoint-driven roulette, 16-bit quadrant weights, training samples in the render's own sequences, shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image)".to_owned(),
+                "sd-tree 13 (emitters' direct light learnt as far as their light samples are blocked, records times the cosine at their vertex, sky samples following a quadtree of the sky seen directly, adjoint-driven roulette, 16-bit quadrant weights, training samples in the render's own sequences, shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image)".to_owned(),
             ),
             (GUIDING_ITERATIONS, g.iterations.to_string()),
         ]

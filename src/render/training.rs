@@ -36,12 +36,15 @@ use crate::guiding::{
 use crate::integrator::{PathTracer, RayCount};
 use crate::scene::Camera;
 
-/// Records of one batch of tiles, as far as there are more tiles than workers: 917k,
-/// about 51 MB (28 bytes each, and 28 more while they are folded: the leaves each
-/// goes to, and its direction and value copied into its leaf's group; see
+/// Records of one batch of tiles, as far as there are more tiles than workers: 655k,
+/// about 50 MB (40 bytes each, and 36 more while they are folded: the leaves each goes
+/// to, and its direction and values copied into its leaf's group; see
 /// [`SdTree::deposit_all`]). Two batches are held at once, one folded while the next
-/// renders: about 102 MB.
-const RECORDS_PER_BATCH: usize = 7 << 17;
+/// renders: about 100 MB.
+const RECORDS_PER_BATCH: usize = 5 << 17;
+
+// The record size the bound above is worked out with.
+const _: () = assert!(std::mem::size_of::<Record>() == 40);
 
 /// The guided draws an iteration keeps to learn the regions' shares from (see
 /// [`SdTree::refined`]): about a million, 59 MB (56 bytes each). An iteration
@@ -61,8 +64,8 @@ fn keep_share(expected: u64) -> f32 {
 /// Tiles rendered before their records are folded in: as many as fit
 /// [`RECORDS_PER_BATCH`] (a path leaves at most two records a vertex: its direction
 /// and its light sample), at most 64, but at least one per worker. At the last of 10
-/// iterations (512 spp, depth 8) a tile holds up to 151 MB of records (folding them
-/// included), so two batches hold at most twice that per worker.
+/// iterations (512 spp, depth 8) a tile holds up to 2.1 million records, 159 MB
+/// (folding them included), so two batches hold at most twice that per worker.
 fn tiles_per_batch(spp: u32, max_depth: u32) -> usize {
     let per_path = 2 * max_depth.max(1) as usize;
     let per_tile = (TILE_SIZE * TILE_SIZE) as usize * spp as usize * per_path;
