@@ -1,9 +1,11 @@
 //! What a training path leaves behind: for each non-delta vertex, the radiance that
 //! arrived along the direction it scattered into, and for each light sample, the
 //! radiance that arrived along the light's direction, each times the cosine at the
-//! vertex (the [`Record`]s the guide's distributions are learnt from); and, at guided
-//! vertices, how each such direction was drawn (the [`GuidedDraw`]s the guide's
-//! shares are learnt from).
+//! vertex (the [`Record`]s the guide's distributions are learnt from), an emitter's
+//! direct light kept apart, and whether an emitter's light sample found it (how much
+//! of that light the guide learns; see [`SdTree::deposit`](super::SdTree::deposit));
+//! and, at guided vertices, how each such direction was drawn (the [`GuidedDraw`]s
+//! the guide's shares are learnt from).
 //!
 //! Why the cosine: a guided direction is worth what the integrand `f·cos·L` gives
 //! along it, and of that the guide can learn only what every vertex of a region
@@ -419,6 +421,7 @@ impl PathRecorder for PathRecords<'_> {
     }
 }
 
+/// `x` where it is a finite number, else 0 (a record is kept without it).
 fn finite_or_0(x: f32) -> f32 {
     if x.is_finite() {
         x

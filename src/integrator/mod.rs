@@ -594,14 +594,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         };
         // Training learns a region's sky share from every sky sample, lit or not, and
         // how often its emitters' samples are blocked.
-        let unlit = |recorder: &mut R, tested: bool| {
+        let unlit = |recorder: &mut R, blocked: bool| {
             let (p, n, dir) = (surface.p, surface.ns, drawn.dir());
             match (&drawn, guide) {
                 (GuidedLightDraw::Sky(_), Some(guide)) => {
                     let draw = || Some(MixtureDraw::unlit(guide.normal()));
                     recorder.light_sample(p, n, dir, LightFound::Nothing, draw);
                 }
-                _ if tested && drawn.point().is_some() => {
+                _ if blocked && drawn.point().is_some() => {
                     recorder.light_sample(p, n, dir, LightFound::EmitterBlocked, || None);
                 }
                 _ => {}
