@@ -730,8 +730,12 @@ fn a_guided_path_drawing_nothing_from_the_guide_is_the_unguided_one() {
 /// centred at x = 0.125, z = 0.125) left open, and an emissive quad above the hole,
 /// facing down: all light comes in through the hole.
 fn box_with_hole() -> Built {
-    let mut tris = box_with_hole_walls();
-    let y = 1.3;
+    with_lamp(box_with_hole_walls(), 1.3)
+}
+
+/// `walls` (material 0, albedo 0.5) and a lamp: a quad over `x, z ∈ [−0.2, 0.45]` at
+/// height `y`, facing down, of radiance 40.
+fn with_lamp(mut tris: Vec<([Vec3; 3], u32)>, y: f32) -> Built {
     tris.extend(quad(
         Vec3::new(-0.2, y, -0.2),
         Vec3::new(0.45, y, -0.2),
@@ -854,22 +858,7 @@ fn guide_learns_the_way_to_the_light_through_a_hole() {
 /// The box of [`box_with_hole`] closed, its lamp hung inside under the ceiling: seen
 /// from all of the floor.
 fn box_with_lamp_inside() -> Built {
-    let mut tris = inward_cube(8, 0);
-    let y = 0.9;
-    tris.extend(quad(
-        Vec3::new(-0.2, y, -0.2),
-        Vec3::new(0.45, y, -0.2),
-        Vec3::new(0.45, y, 0.45),
-        Vec3::new(-0.2, y, 0.45),
-        1,
-    ));
-    build(
-        &tris,
-        vec![
-            diffuse(Vec3::splat(0.5), Vec3::ZERO),
-            diffuse(Vec3::ZERO, Vec3::splat(40.0)),
-        ],
-    )
+    with_lamp(inward_cube(8, 0), 0.9)
 }
 
 /// Where the light samples find the lamp, the guide leaves its direct light to them
