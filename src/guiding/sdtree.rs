@@ -162,7 +162,8 @@ impl Leaf {
             Shadow::Untested => self.records += 1,
             Shadow::Clear => {
                 self.records += 1;
-                (self.shadow_tests, self.clear) = (self.shadow_tests + 1, self.clear + 1)
+                self.shadow_tests += 1;
+                self.clear += 1;
             }
             Shadow::Blocked => self.shadow_tests += 1,
         }
@@ -449,13 +450,14 @@ impl SdTree {
     /// [`Record`]). The record counts in the leaf of `p` only; its values are spread by
     /// box filters over space and direction (see [`route`](Self::route)).
     ///
-    /// The leaf's guide learns the record's `value` and its `direct` light times one
-    /// less the leaf's [`visibility`](visibility_estimate): the guide's draws are worth
-    /// most where next-event estimation does badly, and an emitter's direct light is
-    /// what it estimates well, but for the samples whose shadow ray is blocked. In a
-    /// Cornell box, where the lamp is seen from almost everywhere, the guide learns
-    /// the light the walls reflect; in a box lit through a hole by a lamp above it,
-    /// where most light samples hit the ceiling, nearly all of the lamp's light.
+    /// The leaf's guide learns the record's `value` and its `direct` light times the
+    /// [`direct_share`] of the leaf's [`visibility`](visibility_estimate): the guide's
+    /// draws are worth most where next-event estimation does badly, and an emitter's
+    /// direct light is what it estimates well, but for the samples whose shadow ray is
+    /// blocked. In a Cornell box, where the lamp is seen from almost everywhere, the
+    /// guide learns the light the walls reflect; in a box lit through a hole by a lamp
+    /// above it, where most light samples hit the ceiling, nearly all of the lamp's
+    /// light.
     pub fn deposit(&mut self, record: &Record) {
         let route = self.route(record);
         self.leaves[route.home as usize].count(record.shadow);
@@ -695,16 +697,16 @@ fn incident_estimate(leaf: &Leaf) -> f32 {
     }
 }
 
-/// The share of an emitter's direct light a region's guide learns where that share
-/// of its light samples find their emitter: `(1 − visibility)²`, all of it where they
-/// are all blocked, none where none is. Why squared: per sample against `1 −
-/// visibility` and `(1 − visibility)⁴`, in one sitting (2026-12-04, seeds 11 and 12,
-/// 512² at 64 spp; the staircase 72×128 at 256 spp, seeds 11–14), the Cornell
-/// Original's relMSE was 7.85e-4 and 7.76e-4 against 8.03e-4 and 8.03e-4, and
-/// 7.86e-4 and 7.88e-4; GlossyMix's 3.89e-3 and 4.02e-3 against 3.86e-3 and 3.77e-3,
-/// and 3.93e-3 and 4.00e-3; the staircase's 2.18e-3 on average against 2.25e-3 and
-/// 2.21e-3 (learning all of it, as before: Original 9.16e-4, GlossyMix 4.65e-3,
-/// staircase 2.29e-3; none of it: staircase 2.23e-3).
+/// The share of an emitter's direct light a region's guide learns where a share
+/// `visibility` of its light samples find their emitter: `(1 − visibility)²`, all of
+/// it where they are all blocked, none where none is. Why squared: per sample against
+/// `1 − visibility` and `(1 − visibility)⁴` (2026-12-04; the boxes 512² at 64 spp,
+/// seeds 11 and 12; the staircase 72×128 at 256 spp, seeds 11–14), the Cornell
+/// Original's relMSE was 7.85e-4 and 7.76e-4 against 8.03e-4 and 8.03e-4, and 7.86e-4
+/// and 7.88e-4; GlossyMix's 3.89e-3 and 4.02e-3 against 3.86e-3 and 3.77e-3, and
+/// 3.93e-3 and 4.00e-3; the staircase's 2.18e-3 on average against 2.25e-3 and 2.21e-3
+/// (learning all of it, as before: Original 9.16e-4, GlossyMix 4.65e-3, staircase
+/// 2.29e-3; none of it: staircase 2.23e-3).
 fn direct_share(visibility: f32) -> f32 {
     (1.0 - visibility) * (1.0 - visibility)
 }
