@@ -369,12 +369,7 @@ impl PathRecorder for PathRecords<'_> {
                 integrand,
             } => {
                 let sky = channel_mean(integrand);
-                record(
-                    channel_mean(incident) * cos,
-                    0.0,
-                    finite_or_0(sky),
-                    Shadow::Untested,
-                )
+                record(channel_mean(incident) * cos, 0.0, sky, Shadow::Untested)
             }
             LightFound::Emitter(incident) => {
                 record(0.0, channel_mean(incident) * cos, 0.0, Shadow::Clear)
@@ -418,15 +413,6 @@ impl PathRecorder for PathRecords<'_> {
             }
         }
         self.len = 0;
-    }
-}
-
-/// `x` where it is a finite number, else 0 (a record is kept without it).
-fn finite_or_0(x: f32) -> f32 {
-    if x.is_finite() {
-        x
-    } else {
-        0.0
     }
 }
 

@@ -350,7 +350,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             radiance += emitted;
             // Where the vertex the ray left took a light sample too, the emitter it met
             // is light next-event estimation also carries (see `Record::direct`).
-            if ray_recorded && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis) {
+            if ray_recorded && self.takes_light_samples() {
                 recorder.met_emitter(emitted);
             } else {
                 recorder.added(emitted);
@@ -368,8 +368,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 passes_found = true;
             }
             let last_vertex = segment + 1 == self.max_depth;
-            let next_event = !bsdf.is_delta()
-                && matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis);
+            let next_event = !bsdf.is_delta() && self.takes_light_samples();
             let mis = self.kind == IntegratorKind::Mis && !last_vertex;
             // Adjoint-driven roulette's survival probability (1 where it plays none),
             // where the guide has anything to go by (not the untrained one of
@@ -491,8 +490,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     /// another texel), and the load overlaps the surface's shading.
     #[inline(always)]
     fn prefetches_sky(&self) -> bool {
+        self.takes_light_samples() && self.lights.sky_probability() > 0.0
+    }
+
+    /// Whether the integrator takes a light sample at its non-delta vertices
+    /// (next-event estimation): `light` and `mis`.
+    #[inline(always)]
+    fn takes_light_samples(&self) -> bool {
         matches!(self.kind, IntegratorKind::Light | IntegratorKind::Mis)
-            && self.lights.sky_probability() > 0.0
     }
 
     /// Emission of the surface at `hit` towards a ray travelling along `dir`, weighted
@@ -635,12 +640,14 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             }
             (true, _) => power_heuristic(light.pdf, bsdf_pdf),
         };
+        // In this order, as before guiding existed: unguided samples keep their bits.
+        let reflected = f * light.emission * (weight / light.pdf);
         if R::RECORDS {
             let incident = light.emission * (weight / light.pdf);
             let found = match light.point {
                 None => LightFound::Sky {
                     incident,
-                    integrand: f * light.emission * (weight / light.pdf),
+                    integrand: reflected,
                 },
                 Some(_) => LightFound::Emitter(incident),
             };
@@ -648,8 +655,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 sky_normal.map(|n| self.sky_draw(light.dir, light.pdf, n, f * light.emission))
             });
         }
-        // In this order, as before guiding existed: unguided samples keep their bits.
-        f * light.emission * (weight / light.pdf)
+        reflected
     }
 
     /// The light sample of [`direct_light`](Self::direct_light), its sky direction
