@@ -7,13 +7,16 @@ an equirectangular map around the scene, read as ember reads it
 it about +y, nearest texel), so that Cycles renders the room as ember does once its
 textures are taken out of the MTL (render.py maps none).
 
-    CYCLES_PEER=DIR python cycles_env.py --env MAP.exr --env-rotate DEG RENDER_PY_ARGS...
+    CYCLES_PEER=DIR python cycles_env.py [--env MAP.exr --env-rotate DEG]
+        [--cycles-setting NAME=VALUE ...] RENDER_PY_ARGS...
 
 DIR holds render.py (default ../shared/peers/cycles); run it with the Python of that
 peer's venv (`pip install bpy numpy`). The rotation's sign was checked against ember
 on the sky alone (a 64x32 view along four directions: mean absolute difference 1-2% of
 the mean at 16 spp, the images' own noise). Cycles importance-samples the world from a
-2048-wide map of it. A measuring tool, not part of ember.
+2048-wide map of it. `--cycles-setting` sets any `scene.cycles` property after the
+peer's own settings (e.g. `guiding_distribution_type=DIRECTIONAL_QUADTREE`, Open PGL's
+SD-tree). A measuring tool, not part of ember.
 """
 
 import math
@@ -32,6 +35,23 @@ def take_option(argv, name, default):
     value = argv[i + 1]
     del argv[i : i + 2]
     return value
+
+
+def take_settings(argv):
+    """Removes every `--cycles-setting NAME=VALUE` from argv; returns (NAME, VALUE)
+    pairs, VALUE read as a bool, int or float where it is one."""
+    settings = []
+    while "--cycles-setting" in argv:
+        name, _, text = take_option(argv, "--cycles-setting", "").partition("=")
+        value = {"True": True, "False": False}.get(text, text)
+        for kind in (int, float):
+            if isinstance(value, str):
+                try:
+                    value = kind(value)
+                except ValueError:
+                    pass
+        settings.append((name, value))
+    return settings
 
 
 def add_environment(bpy, scene, path, rotate_degrees):
@@ -79,6 +99,16 @@ def main():
     argv = sys.argv[1:]
     env = take_option(argv, "--env", None)
     rotate = float(take_option(argv, "--env-rotate", "0"))
+    settings = take_settings(argv)
+    if settings:
+        peer_settings = render.configure_render
+
+        def configure_with_settings(bpy, st, scene, args):
+            peer_settings(bpy, st, scene, args)
+            for name, value in settings:
+                st.set("scene.cycles", scene.cycles, name, value)
+
+        render.configure_render = configure_with_settings
     if env is not None:
         plain_world = render.setup_world
 
