@@ -598,8 +598,12 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         };
         // Training learns a region's sky share from every sky sample, lit or not, and
-        // how often its emitters' samples are blocked.
+        // how often its emitters' samples are blocked (a render records nothing, as for
+        // lit samples below).
         let unlit = |recorder: &mut R, blocked: bool| {
+            if !R::RECORDS {
+                return Vec3::ZERO;
+            }
             let (p, n, dir) = (surface.p, surface.ns, drawn.dir());
             match (&drawn, guide) {
                 (GuidedLightDraw::Sky(_), Some(guide)) => {
