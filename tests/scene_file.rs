@@ -243,3 +243,67 @@ fn the_loading_line_counts_the_placements() {
     assert_eq!(count(", placed "), 3, "{line}");
     assert_eq!(count(" times ("), 3 * triangles, "{line}");
 }
+
+/// Copies the folder `from` into `to`, recursively.
+fn copy_tree(from: &Path, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    for entry in std::fs::read_dir(from).unwrap() {
+        let entry = entry.unwrap();
+        let target = to.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_tree(&entry.path(), &target);
+        } else {
+            std::fs::copy(entry.path(), &target).unwrap();
+        }
+    }
+}
+
+/// Every scene file in `scenes/` renders from the repository alone: copied with
+/// `meshes/` into an empty folder (so nothing beside the repository, such as a
+/// `../shared`, can be reached), each renders at a small size to an image that is not
+/// black, and at least one of them places OBJs by `[[instance]]`.
+#[test]
+fn every_shipped_scene_renders_from_the_repository_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_tree(&repo().join("scenes"), &dir.path().join("scenes"));
+    copy_tree(&repo().join("meshes"), &dir.path().join("meshes"));
+    let mut scenes: Vec<PathBuf> = std::fs::read_dir(dir.path().join("scenes"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    scenes.sort();
+    assert!(scenes.len() >= 2, "scenes/ holds {scenes:?}");
+    let mut instanced = 0;
+    for scene in &scenes {
+        let mut args = vec!["render", scene.to_str().unwrap(), "-o", "out.exr"];
+        args.extend(["--width", "32", "--height", "24", "--spp", "8"]);
+        let out = ember(&args, dir.path());
+        ok(&out);
+        let image = ember::image::Image::load(&dir.path().join("out.exr")).unwrap();
+        let lit = image
+            .pixels
+            .iter()
+            .filter(|p| p.max_element() > 0.0)
+            .count();
+        // Mostly lit: the scenes fill their frames, with gaps between placed models.
+        assert!(
+            4 * lit >= image.pixels.len() && image.mean().max_element() > 0.01,
+            "{}: {lit} of {} pixels lit, mean {}",
+            scene.display(),
+            image.pixels.len(),
+            image.mean()
+        );
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        if stderr
+            .lines()
+            .any(|l| l.starts_with("loaded ") && l.contains(", placed "))
+        {
+            instanced += 1;
+        }
+    }
+    assert!(
+        instanced >= 1,
+        "no scene in scenes/ places OBJs by instances"
+    );
+}
