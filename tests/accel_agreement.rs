@@ -148,24 +148,18 @@ impl Parts {
         }
     }
 
-    /// An axis-aligned box: 12 triangles, corners shared.
+    /// An axis-aligned box: six faces of two triangles, each face its own corners.
     fn slab(&mut self, lo: Vec3, hi: Vec3) {
-        let base = self.positions.len() as u32;
-        let corner =
-            |k: u32| Vec3::select(glam::BVec3::new(k & 1 != 0, k & 2 != 0, k & 4 != 0), hi, lo);
-        self.positions.extend((0..8).map(corner));
-        for [a, b, c, d] in [
-            [0, 1, 3, 2],
-            [4, 6, 7, 5],
-            [0, 4, 5, 1],
-            [2, 3, 7, 6],
-            [0, 2, 6, 4],
-            [1, 5, 7, 3],
-        ] {
-            self.triangles.extend([
-                [base + a, base + b, base + c],
-                [base + a, base + c, base + d],
-            ]);
+        for axis in 0..3 {
+            let (u, v) = ((axis + 1) % 3, (axis + 2) % 3);
+            for side in [lo, hi] {
+                self.grid(1, 1, false, |i, j| {
+                    let mut p = side;
+                    p[u] = if i == 0 { lo[u] } else { hi[u] };
+                    p[v] = if j == 0 { lo[v] } else { hi[v] };
+                    p
+                });
+            }
         }
     }
 
