@@ -14,7 +14,11 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use cli::{
-    bench::BenchArgs, denoise::DenoiseArgs, merge::MergeArgs, misc::CompareArgs, render::RenderArgs,
+    bench::BenchArgs,
+    denoise::DenoiseArgs,
+    merge::MergeArgs,
+    misc::{CompareArgs, InfoArgs},
+    render::RenderArgs,
 };
 
 #[derive(Parser)]
@@ -43,8 +47,9 @@ enum Command {
     /// Print MSE, relative MSE and PSNR of an image against a reference (EXR, HDR or PNG).
     Compare(CompareArgs),
     /// Show the Embree library in use, its ISA and threads, the Open Image Denoise
-    /// library and device, and how ember was built.
-    Info,
+    /// library and device, and how ember was built; or, given a scene, what ember reads
+    /// of it.
+    Info(InfoArgs),
 }
 
 fn main() -> ExitCode {
@@ -78,7 +83,7 @@ fn main() -> ExitCode {
         Command::Denoise(args) => cli::denoise::run(args).map(|()| ExitCode::SUCCESS),
         Command::Bench(args) => cli::bench::run(args).map(|()| ExitCode::SUCCESS),
         Command::Compare(args) => cli::misc::compare(args).map(|()| ExitCode::SUCCESS),
-        Command::Info => cli::misc::info().map(|()| ExitCode::SUCCESS),
+        Command::Info(args) => cli::misc::info(args).map(|()| ExitCode::SUCCESS),
     };
     match result {
         Ok(code) => code,

@@ -1,12 +1,15 @@
 //! `ember compare` and `ember info`.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Result};
 use clap::Args;
 
 use ember::embree::Device;
 use ember::image::{self, Crop, Image};
+use ember::scene::{load_obj_with, LoadOptions, SceneFile};
+
+use super::scene_file::is_scene_file;
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -48,7 +51,50 @@ pub fn compare(args: CompareArgs) -> Result<()> {
     Ok(())
 }
 
-pub fn info() -> Result<()> {
+#[derive(Args)]
+pub struct InfoArgs {
+    /// An OBJ or a scene file (.toml): show what ember reads of it (triangles,
+    /// materials, emitters, vertex colours) and its warnings, instead of the build.
+    scene: Option<PathBuf>,
+    /// With a scene: refuse it as `ember render --strict` would.
+    #[arg(long, requires = "scene")]
+    strict: bool,
+}
+
+pub fn info(args: InfoArgs) -> Result<()> {
+    match &args.scene {
+        Some(scene) => scene_info(scene, &LoadOptions { strict: args.strict }),
+        None => build_info(),
+    }
+}
+
+/// The scene as `ember render` loads it: the summary on stdout, each warning on stderr.
+fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
+    let (scene, report) = if is_scene_file(path) {
+        SceneFile::read(path)?.load_scene(options)?
+    } else {
+        load_obj_with(path, options)?
+    };
+    for warning in &report.warnings {
+        eprintln!("warning: {}: {warning}", path.display());
+    }
+    println!("{}: {}", path.display(), report.summary());
+    let (lo, hi) = scene.bounds();
+    println!(
+        "{} vertices; bounds ({}, {}, {}) to ({}, {}, {})",
+        report.vertices, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+    );
+    match report.vertex_colours {
+        Some(colours) => println!(
+            "vertex colours: written in {}, multiplying each material's diffuse colour",
+            colours.range()
+        ),
+        None => println!("vertex colours: none"),
+    }
+    Ok(())
+}
+
+fn build_info() -> Result<()> {
     let device = Device::new("")?;
     let info = device.info();
     let isa = match info.native_packet_width {

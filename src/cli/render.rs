@@ -34,8 +34,8 @@ use ember::render::{
     RenderStats, GUIDING_ITERATIONS,
 };
 use ember::scene::{
-    load_obj, Camera, CameraSettings, Environment, Instancing, Lens, LoadReport, Opacity, Scene,
-    SceneFile,
+    load_obj_with, Camera, CameraSettings, Environment, Instancing, Lens, LoadOptions, LoadReport,
+    Opacity, Scene, SceneFile,
 };
 
 /// clap's ranges take `i64`.
@@ -190,6 +190,11 @@ pub struct RenderArgs {
     /// either (up to floating-point ties).
     #[arg(long, value_enum, default_value_t = AccelArg::Embree)]
     accel: AccelArg,
+    /// Refuse the scene, instead of warning and rendering on, when a material library,
+    /// a texture or a `usemtl` material is absent, or a file was found only by its file
+    /// name or by ignoring case (see docs/input-rules.md).
+    #[arg(long)]
+    strict: bool,
     #[command(flatten)]
     tone: ToneArgs,
 }
@@ -292,6 +297,8 @@ struct RenderPlan {
     samples: Range<u32>,
     /// Whether `--guiding-iterations` was given (else a resume takes the checkpoint's).
     guiding_iterations_given: bool,
+    /// How the scene is loaded (`--strict`).
+    load: LoadOptions,
 }
 
 impl RenderPlan {
@@ -366,6 +373,9 @@ impl RenderPlan {
             guide_sky: args.guide_sky,
             samples,
             guiding_iterations_given,
+            load: LoadOptions {
+                strict: args.strict,
+            },
         }
     }
 
@@ -564,8 +574,8 @@ struct LoadedScene {
 
 fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let (mut scene, report) = match &plan.scene_file {
-        Some(file) => file.load_scene()?,
-        None => load_obj(&plan.scene)?,
+        Some(file) => file.load_scene(&plan.load)?,
+        None => load_obj_with(&plan.scene, &plan.load)?,
     };
     let unlit = scene.emitters.is_empty() && plan.background.is_none() && plan.env.is_none();
     scene.sky = match (&plan.env, plan.background) {
@@ -890,11 +900,9 @@ fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
         ),
     };
     eprintln!(
-        "loaded {}: {} triangles, {} materials, {} emissive triangles{dropped}{placed}",
+        "loaded {}: {}{dropped}{placed}",
         plan.scene.display(),
-        report.triangles,
-        report.materials,
-        report.emitters,
+        report.summary()
     );
 }
 

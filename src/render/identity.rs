@@ -255,6 +255,12 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     h.vec3s(&m.normals);
     h.len(m.uvs.len());
     h.f32s(m.uvs.iter().flat_map(Vec2::to_array));
+    // Only where there are any, so that the fingerprints of scenes without vertex
+    // colours (and their checkpoints) stay as they were.
+    if !m.colours.is_empty() {
+        h.len(m.colours.len());
+        h.vec3s(&m.colours);
+    }
     h.len(m.triangles.len());
     h.u32s(m.triangles.iter().flatten().copied());
     h.u32s(m.material.iter().copied());

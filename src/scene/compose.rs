@@ -30,6 +30,7 @@ pub fn compose(placements: &[Placement<'_>]) -> Scene {
         .iter()
         .any(|p| !p.scene.mesh.uvs.is_empty() || mirrors(&p.transform));
     let normals = placements.iter().any(|p| !p.scene.mesh.normals.is_empty());
+    let colours = placements.iter().any(|p| !p.scene.mesh.colours.is_empty());
     let mut mesh = TriangleMesh::default();
     let mut materials = Vec::new();
     let mut textures = Vec::new();
@@ -46,7 +47,11 @@ pub fn compose(placements: &[Placement<'_>]) -> Scene {
             &scene.mesh,
             &placement.transform,
             offsets.material,
-            (uvs, normals),
+            Kept {
+                uvs,
+                normals,
+                colours,
+            },
         );
         materials.extend(scene.materials.iter().map(|m| offsets.material_of(m)));
         textures.extend(scene.textures.iter().map(Arc::clone));
@@ -87,15 +92,23 @@ impl Offsets {
     }
 }
 
-/// Appends `part` under `transform` to `mesh`; `(uvs, normals)` say whether the
-/// composed mesh keeps those attributes per vertex.
+/// Which attributes the composed mesh keeps per vertex.
+struct Kept {
+    uvs: bool,
+    normals: bool,
+    colours: bool,
+}
+
+/// Appends `part` under `transform` to `mesh`, with the attributes `kept` (white
+/// colours where `part` has none).
 fn append_mesh(
     mesh: &mut TriangleMesh,
     part: &TriangleMesh,
     transform: &Affine3A,
     material_offset: u32,
-    (uvs, normals): (bool, bool),
+    kept: Kept,
 ) {
+    let colour = |i: u32| part.colours.get(i as usize).copied().unwrap_or(Vec3::ONE);
     let normal_matrix: Mat3A = transform.matrix3.inverse().transpose();
     let mirrored = mirrors(transform);
     let corners = |[a, b, c]: [u32; 3]| if mirrored { [a, c, b] } else { [a, b, c] };
@@ -107,7 +120,7 @@ fn append_mesh(
             Vec3::from(normal_matrix * glam::Vec3A::from(*n)).normalize_or_zero()
         }
     };
-    if uvs && part.uvs.is_empty() {
+    if kept.uvs && part.uvs.is_empty() {
         // Three corners of its own per triangle, at (0,0), (1,0), (0,1).
         for (t, tri) in part.triangles.iter().enumerate() {
             let base = mesh.positions.len() as u32;
@@ -115,7 +128,10 @@ fn append_mesh(
                 mesh.positions
                     .push(transform.transform_point3(part.positions[i as usize]));
                 mesh.uvs.push([Vec2::ZERO, Vec2::X, Vec2::Y][k]);
-                if normals {
+                if kept.colours {
+                    mesh.colours.push(colour(i));
+                }
+                if kept.normals {
                     mesh.normals.push(
                         part.normals
                             .get(i as usize)
@@ -134,10 +150,14 @@ fn append_mesh(
             .iter()
             .map(|&p| transform.transform_point3(p)),
     );
-    if uvs {
+    if kept.uvs {
         mesh.uvs.extend_from_slice(&part.uvs);
     }
-    if normals {
+    if kept.colours {
+        mesh.colours
+            .extend((0..part.positions.len() as u32).map(colour));
+    }
+    if kept.normals {
         if part.normals.is_empty() {
             mesh.normals.resize(mesh.positions.len(), Vec3::ZERO);
         } else {

@@ -15,7 +15,7 @@ use glam::{Affine3A, Mat4, Quat, Vec3};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::{load_obj, place, LoadReport, Scene};
+use super::{load_obj_with, place, LoadOptions, LoadReport, Scene};
 use crate::geometry::Instance;
 
 /// A scene-file error: one line naming the file, the line and column, and the key.
@@ -343,10 +343,10 @@ impl SceneFile {
     /// scene holds each OBJ's mesh once (see [`super::place`]). A file of one OBJ placed
     /// once without a transform gives that OBJ's scene as `ember render OBJ` loads it,
     /// value for value.
-    pub fn load_scene(&self) -> Result<(Scene, LoadReport), SceneFileError> {
+    pub fn load_scene(&self, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneFileError> {
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
-            let scene = load_obj(&obj.path)
+            let scene = load_obj_with(&obj.path, options)
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
             loaded.push(scene);
         }
@@ -360,6 +360,7 @@ impl SceneFile {
             report.obj_bytes += r.obj_bytes;
             report.materials += r.materials;
             report.degenerate_dropped += r.degenerate_dropped;
+            report.vertex_colours = report.vertex_colours.or(r.vertex_colours);
             report.warnings.extend(r.warnings.iter().cloned());
         }
         self.check_memory(&loaded)?;

@@ -160,12 +160,14 @@ impl Instancing {
             p: object.p.map(|p| transform.transform_point3(p)),
             n: object.n.map(|n| n.map(normal)),
             uv: object.uv,
+            colour: object.colour,
         };
         let (mut u, mut v) = (hit.u, hit.v);
         if frame.mirrored {
             corners.p = swap_last(corners.p);
             corners.n = corners.n.map(swap_last);
             corners.uv = corners.uv.map(swap_last);
+            corners.colour = corners.colour.map(swap_last);
             (u, v) = (v, u);
         }
         let mut surface = corners.surface(u, v, mesh.material[hit.prim as usize]);

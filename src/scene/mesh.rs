@@ -15,6 +15,9 @@ pub struct TriangleMesh {
     pub normals: Vec<Vec3>,
     /// Per-vertex texture coordinates, or empty when the file had none.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex colours in [0, 1] (`v x y z r g b`), multiplying the diffuse colour;
+    /// empty when the file had none.
+    pub colours: Vec<Vec3>,
     pub triangles: Vec<[u32; 3]>,
     /// Material index of each triangle.
     pub material: Vec<u32>,
@@ -47,6 +50,8 @@ pub struct SurfacePoint {
     /// Unit shading normal, on the same side of the surface as `ng`.
     pub ns: Vec3,
     pub uv: Vec2,
+    /// The vertex colour here (white where the mesh has none).
+    pub colour: Vec3,
     pub material: u32,
 }
 
@@ -113,18 +118,20 @@ impl TriangleMesh {
             p: corner(&self.positions),
             n: (!self.normals.is_empty()).then(|| corner(&self.normals)),
             uv: (!self.uvs.is_empty()).then(|| [self.uvs[ia], self.uvs[ib], self.uvs[ic]]),
+            colour: (!self.colours.is_empty()).then(|| corner(&self.colours)),
         }
     }
 }
 
 /// A triangle's corners as shading reads them, in winding order: positions, shading
-/// normals (`None` when the mesh has none) and texture coordinates (`None`: a point's
-/// barycentrics are its coordinates).
+/// normals (`None` when the mesh has none), texture coordinates (`None`: a point's
+/// barycentrics are its coordinates) and vertex colours (`None`: white).
 #[derive(Clone, Copy, Debug)]
 pub struct Corners {
     pub p: [Vec3; 3],
     pub n: Option<[Vec3; 3]>,
     pub uv: Option<[Vec2; 3]>,
+    pub colour: Option<[Vec3; 3]>,
 }
 
 impl Corners {
@@ -148,12 +155,16 @@ impl Corners {
             None => Vec2::new(u, v),
             Some([ta, tb, tc]) => w * ta + u * tb + v * tc,
         };
+        let colour = self
+            .colour
+            .map_or(Vec3::ONE, |[ca, cb, cc]| w * ca + u * cb + v * cc);
         SurfacePoint {
             p,
             error: barycentric_error([w, u, v], [a, b, c]),
             ng,
             ns,
             uv,
+            colour,
             material,
         }
     }

@@ -2,6 +2,7 @@
 //! emissive triangles. Immutable once built.
 
 mod alpha;
+mod asset_paths;
 mod camera;
 mod compose;
 mod environment;
@@ -9,6 +10,7 @@ mod file;
 mod instances;
 mod material;
 mod mesh;
+mod mtl;
 mod normal_maps;
 mod obj;
 mod obj_parallel;
@@ -17,6 +19,7 @@ mod opacity;
 mod tangents;
 mod texture;
 mod textures;
+mod warnings;
 
 pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings, Lens};
@@ -30,13 +33,15 @@ pub use material::{
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use normal_maps::{bump, keep_reflection_above, normal_map, uv_derivatives};
 pub use obj::{
-    check_counts, load_obj, load_obj_from_str, LoadReport, MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
+    check_counts, load_obj, load_obj_from_str, load_obj_with, LoadReport, VertexColours,
+    MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
 };
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
 pub use opacity::{coin, Opacity, PartOpacity};
 pub use tangents::mikktspace_tangents;
 pub use texture::{Texels, Texture, TextureKind};
+pub use warnings::LoadOptions;
 
 use glam::{Vec2, Vec3, Vec4};
 use std::path::PathBuf;
@@ -62,6 +67,19 @@ pub enum SceneError {
         path: PathBuf,
         obj: PathBuf,
         reason: String,
+    },
+    #[error("{path}:{line}: {reason} (in the material library named by mtllib in {obj})")]
+    MtlSyntax {
+        path: PathBuf,
+        line: usize,
+        obj: PathBuf,
+        reason: String,
+    },
+    #[error("{path}:{line}: usemtl {name:?} names a material no material library defines")]
+    UndefinedMaterial {
+        path: PathBuf,
+        line: usize,
+        name: String,
     },
     #[error("texture {path} ({slot} of material {material:?}): {reason}")]
     Texture {
@@ -243,10 +261,10 @@ impl Scene {
     }
 
     /// The diffuse reflectance at a surface point (texture lookup where there is one),
-    /// clamped to [0, 1] like `Kd`.
+    /// clamped to [0, 1] like `Kd`, times the vertex colour.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
-        self.reflectance(material.diffuse_texture, material.diffuse, surface.uv)
+        self.reflectance(material.diffuse_texture, material.diffuse, surface.uv) * surface.colour
     }
 
     /// A reflectance colour at `uv`: its map's value clamped to [0, 1] like the

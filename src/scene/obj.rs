@@ -1,6 +1,12 @@
-//! Loading Wavefront OBJ scenes (with their MTL materials and `map_Kd` textures) through
-//! `tobj` (the geometry of ordinary files through its parallel twin, `obj_parallel`),
-//! and validating what they return before anything is rendered.
+//! Loading Wavefront OBJ scenes (with their MTL materials and textures) through `tobj`
+//! (the geometry of ordinary files through its parallel twin, `obj_parallel`; the
+//! material libraries through ember's own reader, `mtl`, for both), and validating what
+//! they return before anything is rendered.
+//!
+//! Whichever reader reads the geometry, the rest is one path: material libraries and
+//! textures are found by the rules of `asset_paths`, absent ones are warnings (or, with
+//! [`LoadOptions::strict`], errors) through `warnings`, and the `usemtl` names no
+//! library defines are found by scanning the text.
 
 use std::borrow::Cow;
 use std::cell::RefCell;
@@ -9,8 +15,11 @@ use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
 
-use super::obj_text::{normalize_mtl_colours, strip_comments};
-use super::textures::TextureLoader;
+use super::asset_paths;
+use super::mtl::{self, parse_mtl};
+use super::obj_text::{argument, pad_vertex_colours, strip_comments};
+use super::textures::{Referrer, TextureLoader};
+use super::warnings::{LoadOptions, Warnings};
 use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, TriangleMesh};
 
 /// Facts about a load worth telling the user.
@@ -24,8 +33,47 @@ pub struct LoadReport {
     pub emitters: usize,
     /// Zero-area (or otherwise degenerate) triangles that were dropped.
     pub degenerate_dropped: usize,
+    /// How the file wrote its vertex colours (`v x y z r g b`), if it has them.
+    pub vertex_colours: Option<VertexColours>,
     /// Non-fatal oddities, one line each (for example a `usemtl` with no definition).
     pub warnings: Vec<String>,
+}
+
+impl LoadReport {
+    /// `12 triangles, 3 materials, 2 emissive triangles, vertex colours (0-255), 1 warning`:
+    /// the counts, with the vertex colours and the warnings where there are any.
+    pub fn summary(&self) -> String {
+        let colours = self
+            .vertex_colours
+            .map_or(String::new(), |c| format!(", vertex colours ({})", c.range()));
+        let warnings = match self.warnings.len() {
+            0 => String::new(),
+            1 => ", 1 warning".to_owned(),
+            n => format!(", {n} warnings"),
+        };
+        format!(
+            "{} triangles, {} materials, {} emissive triangles{colours}{warnings}",
+            self.triangles, self.materials, self.emitters
+        )
+    }
+}
+
+/// How an OBJ wrote its vertex colours: every value at most 1 reads as [0, 1]; a file
+/// with any value above 1 reads as 0-255 and is divided by 255.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum VertexColours {
+    Unit,
+    Bytes,
+}
+
+impl VertexColours {
+    /// `"[0, 1]"` or `"0-255"`, for the summary.
+    pub fn range(self) -> &'static str {
+        match self {
+            VertexColours::Unit => "[0, 1]",
+            VertexColours::Bytes => "0-255",
+        }
+    }
 }
 
 /// Reads a file whole; non-UTF-8 bytes (common in comments of old exporters) become
@@ -70,12 +118,25 @@ fn read_in_parallel(_: &Path) -> Option<Vec<u8>> {
     None
 }
 
-/// Whether `usemtl` appears in the text outside comments.
-fn mentions_usemtl(text: &str) -> bool {
-    memchr::memmem::find_iter(text.as_bytes(), "usemtl").any(|at| {
-        let line_start = text[..at].rfind('\n').map_or(0, |i| i + 1);
-        !text[line_start..at].contains('#')
-    })
+/// The material names the text's `usemtl` statements give, each once, with the line
+/// of its first use, read as both OBJ readers read them.
+fn used_materials(text: &str) -> Vec<(usize, String)> {
+    let mut used: Vec<(usize, String)> = Vec::new();
+    let (mut line, mut counted) = (1, 0);
+    for at in memchr::memmem::find_iter(text.as_bytes(), "usemtl") {
+        let start = text[..at].rfind('\n').map_or(0, |i| i + 1);
+        let end = text[at..].find('\n').map_or(text.len(), |i| at + i);
+        let statement = text[start..end].split('#').next().unwrap_or("");
+        let Some(name) = argument(statement, "usemtl") else {
+            continue;
+        };
+        line += memchr::memchr_iter(b'\n', &text.as_bytes()[counted..start]).count();
+        counted = start;
+        if !used.iter().any(|(_, n)| n == name) {
+            used.push((line, name.to_owned()));
+        }
+    }
+    used
 }
 
 /// Refuses face, line and point indices that point outside the file before tobj sees
@@ -148,29 +209,85 @@ enum Sources<'a> {
     Memory { mtl: &'a HashMap<String, String> },
 }
 
+/// What the faces of a library that is absent use.
+const INSTEAD_OF_LIBRARY: &str = "the faces that name its materials use ember's default material";
+
+/// A material library as loaded: the folder its textures are looked up in (none in
+/// memory), and how many materials it gave, in the order both readers merge them.
+struct Library {
+    folder: Option<PathBuf>,
+    materials: usize,
+}
+
 impl Sources<'_> {
-    /// The text of the material library `name`, and the directory its textures are
-    /// relative to (disk only).
+    /// The file of the material library `written` names (found by the rules of
+    /// `asset_paths`) and its text; `None` (warned) when it is absent.
     fn read_mtl(
         &self,
-        name: &Path,
-    ) -> Result<(PathBuf, String, Option<PathBuf>), (PathBuf, String)> {
+        obj: &Path,
+        written: &str,
+        warnings: &mut Warnings,
+    ) -> Result<Option<(PathBuf, String, Option<PathBuf>)>, SceneError> {
+        let error = |path: PathBuf, reason| SceneError::Mtl {
+            path,
+            obj: obj.to_owned(),
+            reason,
+        };
         match self {
             Sources::Disk { dir } => {
-                let path = dir.join(name);
-                match read_text(&path) {
-                    Ok(text) => {
-                        let mtl_dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-                        Ok((path, text, Some(mtl_dir)))
-                    }
-                    Err(e) => Err((path, e.to_string())),
-                }
+                let found = asset_paths::find(written, &[dir]);
+                let missing = |reason| error(dir.join(written), reason);
+                let Some(path) = warnings.located(written, found, missing, INSTEAD_OF_LIBRARY)?
+                else {
+                    return Ok(None);
+                };
+                let text = read_text(&path).map_err(|e| error(path.clone(), e.to_string()))?;
+                let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
+                Ok(Some((path, text, Some(folder))))
             }
-            Sources::Memory { mtl } => match mtl.get(&*name.to_string_lossy()) {
-                Some(text) => Ok((name.to_owned(), text.clone(), None)),
-                None => Err((name.to_owned(), "no such material library in memory".into())),
+            Sources::Memory { mtl } => match mtl.get(written) {
+                Some(text) => Ok(Some((written.into(), text.clone(), None))),
+                None => {
+                    let reason = "no such material library in memory".into();
+                    warnings.absent(error(written.into(), reason), INSTEAD_OF_LIBRARY)?;
+                    Ok(None)
+                }
             },
         }
+    }
+
+    /// Reads and checks the material library `written` names: its materials (none when
+    /// it is absent), with its warnings (unknown keys) said as `FILE:LINE: …`.
+    fn load_mtl(
+        &self,
+        obj: &Path,
+        written: &str,
+        warnings: &mut Warnings,
+    ) -> Result<Option<(Library, Vec<tobj::Material>)>, SceneError> {
+        let Some((path, text, folder)) = self.read_mtl(obj, written, warnings)? else {
+            return Ok(None);
+        };
+        let library = parse_mtl(&text).map_err(|e| SceneError::MtlSyntax {
+            path: path.clone(),
+            line: e.line,
+            obj: obj.to_owned(),
+            reason: e.message,
+        })?;
+        if let Some(reason) = library.materials.iter().find_map(unusable_value) {
+            return Err(SceneError::Mtl {
+                path,
+                obj: obj.to_owned(),
+                reason,
+            });
+        }
+        for (line, warning) in library.warnings {
+            warnings.push(format!("{}:{line}: {warning}", path.display()));
+        }
+        let loaded = Library {
+            folder,
+            materials: library.materials.len(),
+        };
+        Ok(Some((loaded, library.materials)))
     }
 }
 
@@ -185,11 +302,17 @@ pub const MEMORY_PER_OBJ_BYTE: u64 = 8;
 /// keeps every index and count well inside that.
 pub const MAX_TRIANGLES: u64 = 1 << 31;
 
+/// Loads an OBJ file, its material libraries and textures into a [`Scene`], with
+/// absent inputs as warnings ([`LoadOptions::default`]).
+pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
+    load_obj_with(path, &LoadOptions::default())
+}
+
 /// Loads an OBJ file, its material libraries and textures into a [`Scene`].
 ///
 /// A file too large for the memory available (see [`crate::limits`]) is refused
 /// before it is read.
-pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
+pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_owned(),
         source,
@@ -216,20 +339,22 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
     }
     let text = read_text(path).map_err(io)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    load_obj_text(path, text.into(), &Sources::Disk { dir })
+    load_obj_text(path, text.into(), &Sources::Disk { dir }, options)
 }
 
 /// Loads an OBJ scene from text in memory; `mtl` maps each `mtllib` name to the text of
-/// that material library. Textures (`map_Kd`) cannot be resolved and are an error.
-/// Errors name the OBJ as `<memory>.obj`.
+/// that material library. Textures cannot be found: each is absent (a warning, or with
+/// `strict` an error). Errors name the OBJ as `<memory>.obj`.
 pub fn load_obj_from_str(
     obj: &str,
     mtl: &HashMap<String, String>,
+    options: &LoadOptions,
 ) -> Result<(Scene, LoadReport), SceneError> {
     load_obj_text(
         Path::new("<memory>.obj"),
         obj.into(),
         &Sources::Memory { mtl },
+        options,
     )
 }
 
@@ -239,38 +364,41 @@ fn load_obj_text(
     path: &Path,
     text: Cow<'_, str>,
     sources: &Sources<'_>,
+    options: &LoadOptions,
 ) -> Result<(Scene, LoadReport), SceneError> {
     let obj_bytes = text.len() as u64;
-    let names_materials = mentions_usemtl(&text);
+    // A byte-order mark (Windows tools write one) would hide the first statement.
+    let body = text.strip_prefix('\u{feff}').unwrap_or(&text);
+    let used = used_materials(body);
+    let mut warnings = Warnings::new(options);
     let Parsed {
         models,
         materials: tobj_materials,
-        mtl_dirs,
-    } = parse(path, &text, sources)?;
+        libraries,
+    } = parse(path, body, sources, &mut warnings)?;
     drop(text);
     let mut report = LoadReport {
         obj_bytes,
         ..LoadReport::default()
     };
-    // Faces without a (known) material use a matte grey at the end of the list.
+    // Faces without a (known) material use the default material at the end of the list.
     let default_material = tobj_materials.len() as u32;
     let mesh = build_mesh(path, &models, default_material, &mut report)?;
     // The mesh holds the geometry now: free tobj's copy before textures are decoded.
     drop(models);
-    // In memory there is no directory to search: every texture is "not found".
-    let mut search_dirs = Vec::new();
-    if let Sources::Disk { dir } = sources {
-        search_dirs.push(dir.clone());
-        search_dirs.extend(mtl_dirs);
-    }
-    let mut loader = TextureLoader::new(search_dirs);
-    let mut materials = build_materials(&tobj_materials, &mut loader, &mut report)?;
-    materials.push(Material::default());
-    if names_materials && tobj_materials.is_empty() {
-        report.warnings.push(
-            "faces name materials but no material library was loaded; they render grey".into(),
-        );
-    }
+    let default = default_material_for(&mesh);
+    warn_undefined(path, &used, &tobj_materials, &default, &mut warnings)?;
+    let obj_dir = match sources {
+        Sources::Disk { dir } => Some(dir.as_path()),
+        Sources::Memory { .. } => None,
+    };
+    let mut loader = TextureLoader::default();
+    let sources = MaterialSources {
+        libraries: &libraries,
+        obj_dir,
+    };
+    let mut materials = build_materials(&tobj_materials, &sources, &mut loader, &mut warnings)?;
+    materials.push(default);
     let TextureLoader {
         textures,
         alpha_maps,
@@ -282,50 +410,80 @@ fn load_obj_text(
     report.vertices = scene.mesh.positions.len();
     report.materials = tobj_materials.len();
     report.emitters = scene.emitters.len();
+    report.warnings.extend(warnings.lines);
     Ok((scene, report))
 }
 
-/// What tobj read: the models, their materials, and the folders the MTL files came
-/// from (textures are looked up there too).
+/// The material of faces that name none, or one no library defines: matte grey, or
+/// white where the vertices carry colours, so that the colours are what is seen.
+fn default_material_for(mesh: &TriangleMesh) -> Material {
+    let mut default = Material::default();
+    if !mesh.colours.is_empty() {
+        default.diffuse = Vec3::ONE;
+    }
+    default
+}
+
+/// One warning (or with `--strict` an error) for each material a `usemtl` names that
+/// no library defines.
+fn warn_undefined(
+    path: &Path,
+    used: &[(usize, String)],
+    defined: &[tobj::Material],
+    default: &Material,
+    warnings: &mut Warnings,
+) -> Result<(), SceneError> {
+    let d = default.diffuse;
+    let instead = format!(
+        "its faces use ember's default material (diffuse {} {} {})",
+        d.x, d.y, d.z
+    );
+    for (line, name) in used {
+        if !defined.iter().any(|m| &m.name == name) {
+            let error = SceneError::UndefinedMaterial {
+                path: path.to_owned(),
+                line: *line,
+                name: name.clone(),
+            };
+            warnings.absent(error, &instead)?;
+        }
+    }
+    Ok(())
+}
+
+/// What tobj read: the models, their materials, and the libraries they came from, in
+/// order (a material's textures are looked up beside its library).
 struct Parsed {
     models: Vec<tobj::Model>,
     materials: Vec<tobj::Material>,
-    mtl_dirs: Vec<PathBuf>,
+    libraries: Vec<Library>,
 }
 
 /// Reads the OBJ text (with comments) in parallel ([`obj_parallel`]), or with tobj
-/// where that declines, reading each `mtllib` ourselves so that a missing or broken
-/// library is an error naming the file, not a silently grey scene; then refuses counts
-/// that do not fit ember's indices.
-fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, SceneError> {
+/// where that declines, reading each `mtllib` ourselves ([`Sources::load_mtl`]) so that
+/// an absent library is a warning and a broken one an error naming the file and line;
+/// then refuses counts that do not fit ember's indices.
+fn parse(
+    path: &Path,
+    text: &str,
+    sources: &Sources<'_>,
+    warnings: &mut Warnings,
+) -> Result<Parsed, SceneError> {
     let mtl_error: RefCell<Option<SceneError>> = RefCell::new(None);
-    let mtl_dirs: RefCell<Vec<PathBuf>> = RefCell::new(Vec::new());
+    let libraries: RefCell<Vec<Library>> = RefCell::new(Vec::new());
+    let warnings = RefCell::new(warnings);
     let load_mtl = |name: &Path| -> tobj::MTLLoadResult {
-        let fail = |mtl_path: PathBuf, reason: String| {
-            mtl_error.borrow_mut().get_or_insert(SceneError::Mtl {
-                path: mtl_path,
-                obj: path.to_owned(),
-                reason,
-            });
-            Err(tobj::LoadError::OpenFileFailed)
-        };
-        let (mtl_path, text, mtl_dir) = match sources.read_mtl(name) {
-            Ok(found) => found,
-            Err((mtl_path, reason)) => return fail(mtl_path, reason),
-        };
-        mtl_dirs.borrow_mut().extend(mtl_dir);
-        let text = match normalize_mtl_colours(&text) {
-            Ok(t) => t,
-            Err(reason) => return fail(mtl_path, reason),
-        };
-        let loaded = tobj::load_mtl_buf(&mut text.as_bytes());
-        match loaded
-            .as_ref()
-            .map(|(materials, _)| materials.iter().find_map(unusable_value))
-        {
-            Err(e) => fail(mtl_path, format!("{e}")),
-            Ok(Some(reason)) => fail(mtl_path, reason),
-            Ok(None) => loaded,
+        let written = name.to_string_lossy();
+        match sources.load_mtl(path, &written, &mut warnings.borrow_mut()) {
+            Ok(Some((library, materials))) => {
+                libraries.borrow_mut().push(library);
+                mtl::tobj_result(materials)
+            }
+            Ok(None) => mtl::tobj_result(Vec::new()),
+            Err(e) => {
+                mtl_error.borrow_mut().get_or_insert(e);
+                Err(tobj::LoadError::OpenFileFailed)
+            }
         }
     };
     let options = tobj::LoadOptions {
@@ -343,6 +501,7 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
         None => {
             let text = strip_comments(text);
             check_face_indices(&text).map_err(obj_error)?;
+            let text = pad_vertex_colours(&text).map_err(obj_error)?;
             tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl)
         }
     };
@@ -363,7 +522,7 @@ fn parse(path: &Path, text: &str, sources: &Sources<'_>) -> Result<Parsed, Scene
     Ok(Parsed {
         models,
         materials,
-        mtl_dirs: mtl_dirs.into_inner(),
+        libraries: libraries.into_inner(),
     })
 }
 
@@ -401,24 +560,60 @@ fn unusable_value(m: &tobj::Material) -> Option<String> {
     })
 }
 
+/// Where the materials came from: their libraries in load order (each gave the next
+/// `materials` of the list) and the OBJ's folder (none in memory).
+struct MaterialSources<'a> {
+    libraries: &'a [Library],
+    obj_dir: Option<&'a Path>,
+}
+
+impl MaterialSources<'_> {
+    /// The folders material `index`'s textures are looked up in: its library's, then
+    /// the OBJ's (as many exporters write paths relative to the OBJ).
+    fn folders(&self, index: usize) -> Vec<&Path> {
+        let mut first = 0;
+        let library = self.libraries.iter().find(|l| {
+            first += l.materials;
+            index < first
+        });
+        let mut folders: Vec<&Path> = library.and_then(|l| l.folder.as_deref()).into_iter().collect();
+        if let Some(dir) = self.obj_dir.filter(|d| !folders.contains(d)) {
+            folders.push(dir);
+        }
+        folders
+    }
+}
+
 /// ember's materials from tobj's, with their textures and opacity maps decoded.
 fn build_materials(
     tobj_materials: &[tobj::Material],
+    sources: &MaterialSources<'_>,
     loader: &mut TextureLoader,
-    report: &mut LoadReport,
+    warnings: &mut Warnings,
 ) -> Result<Vec<Material>, SceneError> {
     let mut zero_opacity = Vec::new();
     let mut materials = Vec::with_capacity(tobj_materials.len() + 1);
-    for m in tobj_materials {
+    for (index, m) in tobj_materials.iter().enumerate() {
+        let folders = sources.folders(index);
         let (texture, kd_alpha) = match &m.diffuse_texture {
             Some(name) => {
-                let (texture, alpha) = loader.diffuse(name, &m.name)?;
-                (Some(texture), alpha)
+                let instead = instead_of_map(m, "map_Kd");
+                let referrer = Referrer {
+                    material: &m.name,
+                    folders: &folders,
+                    instead: &instead,
+                };
+                let loaded = loader.diffuse(name, &referrer, warnings)?;
+                (loaded.map(|(t, _)| t), loaded.and_then(|(_, a)| a))
             }
             None => (None, None),
         };
         let values = MtlValues {
-            kd: m.diffuse.map(vec3),
+            // A `map_Kd` whose file is absent leaves the constant, or the default.
+            kd: m.diffuse.map(vec3).or_else(|| {
+                (m.diffuse_texture.is_some() && texture.is_none())
+                    .then_some(Material::default().diffuse)
+            }),
             ks: m.specular.map(vec3),
             ke: m.emissive.map(vec3),
             ns: m.shininess,
@@ -426,7 +621,7 @@ fn build_materials(
             illum: m.illumination_model,
             pr: unit_parameter(m, "Pr")?,
             pm: unit_parameter(m, "Pm")?,
-            maps: material_maps(m, loader)?,
+            maps: material_maps(m, &folders, loader, warnings)?,
         };
         let mut material = Material::from_mtl(&m.name, &values, texture);
         material.opacity = match opacity_constant(m)? {
@@ -438,25 +633,65 @@ fn build_materials(
         };
         // An explicit `map_d` wins over the alpha channel of `map_Kd`.
         material.opacity_map = match &m.dissolve_texture {
-            Some(name) => Some(loader.opacity(name, &m.name)?),
+            Some(name) => {
+                let instead = instead_of_map(m, "map_d");
+                let referrer = Referrer {
+                    material: &m.name,
+                    folders: &folders,
+                    instead: &instead,
+                };
+                loader.opacity(name, &referrer, warnings)?
+            }
             None => kd_alpha,
         };
         materials.push(material);
     }
     if !zero_opacity.is_empty() {
-        report.warnings.push(zero_opacity_warning(&zero_opacity));
+        warnings.push(zero_opacity_warning(&zero_opacity));
     }
     Ok(materials)
 }
 
-/// The texture maps of a material other than `map_Kd` and `map_d`, decoded.
+/// What a material uses where the file of its map `slot` is absent: the constant of
+/// the same key, or what that key's absence means.
+fn instead_of_map(m: &tobj::Material, slot: &str) -> String {
+    let colour = |c: [f32; 3]| format!("{} {} {}", c[0], c[1], c[2]);
+    let extra = |key: &str| m.unknown_param.get(key).cloned();
+    let (key, constant, otherwise) = match slot {
+        "map_Kd" => (
+            "Kd",
+            m.diffuse.map(colour),
+            "ember's default diffuse 0.5 0.5 0.5",
+        ),
+        "map_Ks" => ("Ks", m.specular.map(colour), "no specular colour"),
+        "map_Ke" => ("Ke", m.emissive.map(colour), "no emission"),
+        "map_Ns" => ("Ns", m.shininess.map(|v| v.to_string()), "Ns 0"),
+        "map_Pr" => ("Pr", extra("Pr"), "the roughness of Ns"),
+        "map_Pm" => ("Pm", extra("Pm"), "no metal"),
+        "map_d" => (
+            "d",
+            m.dissolve.map(|v| v.to_string()),
+            "d and Tr as given (opaque without them)",
+        ),
+        _ => return "the surface is shaded with its own normals".into(),
+    };
+    match constant {
+        Some(value) => format!("the material uses {key} {value} instead"),
+        None => format!("the material uses {otherwise} instead"),
+    }
+}
+
+/// The texture maps of a material other than `map_Kd` and `map_d`, decoded; a map
+/// whose file is absent is left out.
 fn material_maps(
     m: &tobj::Material,
+    folders: &[&Path],
     loader: &mut TextureLoader,
+    warnings: &mut Warnings,
 ) -> Result<MaterialMaps, SceneError> {
     use TextureKind::{Colour, Scalar, Vector};
     let extra = |key: &str| m.unknown_param.get(key).map(String::as_str);
-    // tobj reads `bump` and `map_Bump` into `normal_texture`; they are height maps.
+    // `bump` and `map_Bump` are read into `normal_texture`; they are height maps.
     let slots: [(Option<&str>, &'static str, TextureKind); 7] = [
         (m.specular_texture.as_deref(), "map_Ks", Colour),
         (m.shininess_texture.as_deref(), "map_Ns", Scalar),
@@ -469,8 +704,17 @@ fn material_maps(
     let mut ids = [None; 7];
     let mut bump_scale = 1.0;
     for (k, (statement, slot, kind)) in slots.into_iter().enumerate() {
-        if let Some(statement) = statement {
-            let (id, scale) = loader.texture(statement, slot, &m.name, kind)?;
+        let Some(statement) = statement else {
+            continue;
+        };
+        let instead = instead_of_map(m, slot);
+        let referrer = Referrer {
+            material: &m.name,
+            folders,
+            instead: &instead,
+        };
+        let loaded = loader.texture(statement, slot, &referrer, kind, warnings)?;
+        if let Some((id, scale)) = loaded {
             ids[k] = Some(id);
             if slot == "bump" {
                 bump_scale = scale;
@@ -522,7 +766,10 @@ fn build_mesh(
     mesh.positions.reserve_exact(vertices + 1);
     mesh.triangles.reserve_exact(triangles + 1);
     mesh.material.reserve_exact(triangles);
-    let mut attributes = AttributePresence::default();
+    let mut attributes = AttributePresence {
+        colour_scale: colour_scale(path, models, report)?,
+        ..AttributePresence::default()
+    };
     for model in models {
         let offset = mesh.positions.len();
         append_attributes(path, &model.mesh, &mut mesh, &mut attributes)?;
@@ -573,12 +820,58 @@ fn build_mesh(
     Ok(mesh)
 }
 
-/// Whether any model so far had normals or UVs: once one has, every vertex gets one
-/// (zero where its model had none).
+/// Whether any model so far had normals, UVs or colours: once one has, every vertex
+/// gets one (zero normals and UVs, white colours, where its model had none); and what
+/// the file's colours are multiplied by.
 #[derive(Default)]
 struct AttributePresence {
     normals: bool,
     uvs: bool,
+    colours: bool,
+    colour_scale: f32,
+}
+
+/// What the file's vertex colours are multiplied by: 1 when every value is at most 1,
+/// 1/255 when some value is above it (0-255 as written). Records which in `report`;
+/// a value that is negative, not finite or above 255 is an error.
+fn colour_scale(
+    path: &Path,
+    models: &[tobj::Model],
+    report: &mut LoadReport,
+) -> Result<f32, SceneError> {
+    let mut offset = 0;
+    let mut highest = 0.0f32;
+    for model in models {
+        for (i, c) in model.mesh.vertex_color.chunks_exact(3).enumerate() {
+            let c = Vec3::new(c[0], c[1], c[2]);
+            if !c.is_finite() {
+                return Err(non_finite(path, "vertex colour", offset + i + 1, c));
+            }
+            if c.min_element() < 0.0 || c.max_element() > 255.0 {
+                return Err(SceneError::Obj {
+                    path: path.to_owned(),
+                    reason: format!(
+                        "vertex colour {} {} {} (vertex {}) is neither in [0, 1] nor in 0-255",
+                        c.x,
+                        c.y,
+                        c.z,
+                        offset + i + 1
+                    ),
+                });
+            }
+            highest = highest.max(c.max_element());
+        }
+        offset += model.mesh.positions.len() / 3;
+    }
+    if models.iter().all(|m| m.mesh.vertex_color.is_empty()) {
+        return Ok(1.0);
+    }
+    let (kind, scale) = match highest > 1.0 {
+        true => (VertexColours::Bytes, 1.0 / 255.0),
+        false => (VertexColours::Unit, 1.0),
+    };
+    report.vertex_colours = Some(kind);
+    Ok(scale)
 }
 
 /// Appends one model's vertex positions, normals and UVs to `mesh`.
@@ -632,6 +925,18 @@ fn append_attributes(
         }
     } else if any.uvs {
         mesh.uvs.resize(offset + count, Vec2::ZERO);
+    }
+    if m.vertex_color.len() == m.positions.len() && count > 0 {
+        if !any.colours {
+            mesh.colours.resize(offset, Vec3::ONE);
+            any.colours = true;
+        }
+        let scale = any.colour_scale;
+        let colours = m.vertex_color.chunks_exact(3);
+        mesh.colours
+            .extend(colours.map(|c| Vec3::new(c[0], c[1], c[2]) * scale));
+    } else if any.colours {
+        mesh.colours.resize(offset + count, Vec3::ONE);
     }
     Ok(())
 }

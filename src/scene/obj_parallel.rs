@@ -4,14 +4,16 @@
 //! each chunk are counted, then every chunk is parsed straight into its share of the
 //! attribute arrays, and the faces are joined into models in file order.
 //!
-//! It covers what real files say (`v x y z`, `vt`, `vn`, faces of three or more
-//! corners, `o`, `g`, `usemtl`, `mtllib`, comments, unknown statements such as `s`).
-//! On anything else it declines and tobj reads the file instead: `l` and `p`
-//! statements, vertex colours or `w`, faces of fewer than three corners, indices that
-//! are zero, malformed or point forward or outside the file, and every error. So
-//! unusual input and every error message go the way they went before. Numbers are read
-//! with the standard library's parsers, as tobj reads them, so the values are the same
-//! bits; `tests/obj_parallel.rs` holds the two readers to that.
+//! It covers what real files say (`v x y z`, vertex colours `v x y z r g b` when every
+//! vertex has them, `vt`, `vn`, faces of three or more corners, `o`, `g`, `usemtl`,
+//! `mtllib`, comments, unknown statements such as `s`). On anything else it declines
+//! and tobj reads the file instead: `l` and `p` statements, `w`, colours on some
+//! vertices only, faces of fewer than three corners, indices that are zero, malformed
+//! or point forward or outside the file, and every error. So unusual input and every
+//! error message go the way they went before. Numbers are read with the standard
+//! library's parsers, as tobj reads them, so the values are the same bits;
+//! `tests/obj_parallel.rs` holds the two readers to that. Names (`usemtl`, `mtllib`)
+//! are read by `obj_text::argument`, as ember gives them to tobj.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -19,6 +21,8 @@ use std::path::Path;
 
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
+
+use super::obj_text::argument;
 
 /// tobj's "no texture coordinate / normal" for a corner.
 const MISSING: u32 = u32::MAX;
@@ -43,10 +47,13 @@ where
     {
         return None;
     }
+    let coloured = first_vertex_has_colour(text);
     let mut attributes = Attributes {
         positions: vec![0.0; 3 * total.v as usize],
         texcoords: vec![0.0; 2 * total.vt as usize],
         normals: vec![0.0; 3 * total.vn as usize],
+        colours: vec![0.0; if coloured { 3 * total.v as usize } else { 0 }],
+        coloured,
     };
     let parsed: Option<Vec<ChunkFaces>> = attributes
         .split(&counts)
@@ -61,6 +68,15 @@ where
         join.chunk(&chunk, &mut load_mtl);
     }
     Some(Ok(join.finish()))
+}
+
+/// Whether the first `v` statement of the text has a colour (six numbers): then every
+/// vertex must, else none may (this reader declines otherwise).
+fn first_vertex_has_colour(text: &str) -> bool {
+    lines(text)
+        .map(|line| words(line))
+        .find_map(|mut words| (words.next() == Some("v")).then(|| words.count() == 6))
+        .unwrap_or(false)
 }
 
 /// `text` cut into about `pieces` chunks, each ending at a line end (or the text's end).
@@ -203,6 +219,9 @@ struct Attributes {
     positions: Vec<f32>,
     texcoords: Vec<f32>,
     normals: Vec<f32>,
+    /// Per vertex when `coloured`, else empty.
+    colours: Vec<f32>,
+    coloured: bool,
 }
 
 /// One chunk's share of [`Attributes`], and how many of each came before it (what
@@ -211,28 +230,37 @@ struct ChunkSlices<'a> {
     positions: &'a mut [f32],
     texcoords: &'a mut [f32],
     normals: &'a mut [f32],
+    /// Empty when the file has no colours.
+    colours: &'a mut [f32],
+    coloured: bool,
     before: Counts,
 }
 
 impl Attributes {
     /// Disjoint slices of the arrays, one per chunk, in chunk order.
     fn split(&mut self, counts: &[Counts]) -> Vec<ChunkSlices<'_>> {
-        let (mut p, mut t, mut n) = (
+        let (mut p, mut t, mut n, mut k) = (
             &mut self.positions[..],
             &mut self.texcoords[..],
             &mut self.normals[..],
+            &mut self.colours[..],
         );
+        let coloured = self.coloured;
         let mut before = Counts::default();
         let mut slices = Vec::with_capacity(counts.len());
         for c in counts {
             let (p_here, p_rest) = std::mem::take(&mut p).split_at_mut(3 * c.v as usize);
             let (t_here, t_rest) = std::mem::take(&mut t).split_at_mut(2 * c.vt as usize);
             let (n_here, n_rest) = std::mem::take(&mut n).split_at_mut(3 * c.vn as usize);
-            (p, t, n) = (p_rest, t_rest, n_rest);
+            let k_count = if coloured { 3 * c.v as usize } else { 0 };
+            let (k_here, k_rest) = std::mem::take(&mut k).split_at_mut(k_count);
+            (p, t, n, k) = (p_rest, t_rest, n_rest, k_rest);
             slices.push(ChunkSlices {
                 positions: p_here,
                 texcoords: t_here,
                 normals: n_here,
+                colours: k_here,
+                coloured,
                 before,
             });
             before = before.plus(c);
@@ -280,7 +308,10 @@ fn parse_chunk<'a>(text: &'a str, out: &mut ChunkSlices<'_>) -> Option<ChunkFace
             Some("v") => {
                 let at = 3 * seen.v as usize;
                 read_floats(&mut words, out.positions.get_mut(at..at + 3)?)?;
-                // A fourth value (w) or vertex colours: tobj's business.
+                if out.coloured {
+                    read_floats(&mut words, out.colours.get_mut(at..at + 3)?)?;
+                }
+                // A fourth value (w), or colours on some vertices only: tobj's business.
                 if words.next().is_some() {
                     return None;
                 }
@@ -306,8 +337,8 @@ fn parse_chunk<'a>(text: &'a str, out: &mut ChunkSlices<'_>) -> Option<ChunkFace
             }
             Some("l" | "p") => return None,
             Some("o" | "g") => faces.event(Statement::Object(line)),
-            Some("usemtl") => faces.event(Statement::UseMaterial(argument(line)?)),
-            Some("mtllib") => faces.event(Statement::MaterialLibrary(argument(line)?)),
+            Some("usemtl") => faces.event(Statement::UseMaterial(argument(line, "usemtl")?)),
+            Some("mtllib") => faces.event(Statement::MaterialLibrary(argument(line, "mtllib")?)),
             _ => {}
         }
     }
@@ -364,13 +395,6 @@ fn plain_decimal(bytes: &[u8]) -> Option<f32> {
     }
     let value = mantissa as f32 / EXACT_POWERS_OF_TEN[decimals];
     Some(if negative { -value } else { value })
-}
-
-/// What follows the first space of a `usemtl` or `mtllib` line, trimmed, as tobj
-/// reads it; `None` for an empty name (an error in tobj).
-fn argument(line: &str) -> Option<&str> {
-    let name = line.split_once(' ').unwrap_or_default().1.trim();
-    (!name.is_empty()).then_some(name)
 }
 
 /// One face corner `v`, `v/vt`, `v//vn` or `v/vt/vn`, as 0-based indices into the
@@ -568,14 +592,14 @@ impl<'a> Join<'a> {
         let plain = chunk.vt.is_empty() && chunk.vn.is_empty();
         if plain && !self.keyed_by_corner {
             for &v in &chunk.v[corners] {
-                let slot = &mut self.by_position[v as usize];
-                if *slot == MISSING {
-                    *slot = (self.mesh.positions.len() / 3) as u32;
+                let mut slot = self.by_position[v as usize];
+                if slot == MISSING {
+                    slot = (self.mesh.positions.len() / 3) as u32;
+                    self.by_position[v as usize] = slot;
                     self.numbered.push(v);
-                    let p = &self.attributes.positions[3 * v as usize..][..3];
-                    self.mesh.positions.extend_from_slice(p);
+                    self.push_position(v as usize);
                 }
-                self.mesh.indices.push(*slot);
+                self.mesh.indices.push(slot);
             }
             return;
         }
@@ -594,6 +618,20 @@ impl<'a> Join<'a> {
         }
     }
 
+    /// Appends vertex `v`'s position (and colour) to the model being read.
+    #[inline]
+    fn push_position(&mut self, v: usize) {
+        let a = self.attributes;
+        self.mesh
+            .positions
+            .extend_from_slice(&a.positions[3 * v..][..3]);
+        if a.coloured {
+            self.mesh
+                .vertex_color
+                .extend_from_slice(&a.colours[3 * v..][..3]);
+        }
+    }
+
     /// Adds one corner, keyed by all three indices.
     fn add_corner(&mut self, key: [u32; 3]) {
         let next = (self.mesh.positions.len() / 3) as u32;
@@ -601,9 +639,7 @@ impl<'a> Join<'a> {
         if index == next {
             let [v, vt, vn] = key.map(|i| i as usize);
             let a = self.attributes;
-            self.mesh
-                .positions
-                .extend_from_slice(&a.positions[3 * v..][..3]);
+            self.push_position(v);
             if vt != MISSING as usize {
                 self.mesh
                     .texcoords
@@ -644,10 +680,9 @@ pub fn check_against_tobj(obj: &str, mtl: &HashMap<String, String>) -> Result<bo
         let text = mtl
             .get(&*name.to_string_lossy())
             .ok_or(tobj::LoadError::OpenFileFailed)?;
-        // tobj panics on short colours; ember expands or refuses them first.
-        let text = super::obj_text::normalize_mtl_colours(text)
-            .map_err(|_| tobj::LoadError::MaterialParseError)?;
-        tobj::load_mtl_buf(&mut text.as_bytes())
+        let library =
+            super::mtl::parse_mtl(text).map_err(|_| tobj::LoadError::MaterialParseError)?;
+        super::mtl::tobj_result(library.materials)
     };
     let Some(ours) = load_obj(obj, load_mtl) else {
         return Ok(false);
@@ -658,9 +693,12 @@ pub fn check_against_tobj(obj: &str, mtl: &HashMap<String, String>) -> Result<bo
         ignore_points: true,
         ignore_lines: true,
     };
-    // ember's own comment stripping, as it runs before tobj.
+    // ember's own text rules, as they run before tobj.
     let stripped = super::obj_text::strip_comments(obj);
-    let theirs = tobj::load_obj_buf(&mut stripped.as_bytes(), &options, load_mtl);
+    let theirs = match super::obj_text::pad_vertex_colours(&stripped) {
+        Ok(text) => tobj::load_obj_buf(&mut text.as_bytes(), &options, load_mtl),
+        Err(_) => Err(tobj::LoadError::PositionParseError),
+    };
     let (ours, theirs) = match (ours, theirs) {
         (Ok(ours), Ok(theirs)) => (ours, theirs),
         (ours, theirs) => {
@@ -697,8 +735,7 @@ fn same_models(ours: &[tobj::Model], theirs: &[tobj::Model]) -> Result<(), Strin
             && bits(&m.positions) == bits(&n.positions)
             && bits(&m.texcoords) == bits(&n.texcoords)
             && bits(&m.normals) == bits(&n.normals)
-            && m.vertex_color.is_empty()
-            && n.vertex_color.is_empty();
+            && bits(&m.vertex_color) == bits(&n.vertex_color);
         if !same {
             return Err(format!("model {i} ({:?}) differs", a.name));
         }

@@ -1,48 +1,88 @@
-//! Text fixes every OBJ and MTL gets before it is parsed, by either reader (tobj's and
-//! the parallel one): comments stripped, grey colours expanded.
+//! Text rules every OBJ follows whichever reader parses it (tobj's or the parallel
+//! one): comments stripped, the names of `usemtl` and `mtllib` read alike, and vertex
+//! colours given to every vertex or to none.
 
-/// The OBJ text without comments, including those after a statement
-/// (`f 1 2 3 # quad`), which tobj would otherwise read as indices.
+use std::borrow::Cow;
+
+/// The name a `usemtl` or `mtllib` statement gives (`keyword` is which), from a line
+/// without its comment: what follows the keyword and the blanks after it (spaces or
+/// tabs, however many), trimmed; `None` when the line is another statement or the name
+/// is empty.
+pub(super) fn argument<'a>(line: &'a str, keyword: &str) -> Option<&'a str> {
+    let rest = line.trim_start().strip_prefix(keyword)?;
+    if !rest.starts_with(char::is_whitespace) {
+        return None;
+    }
+    let name = rest.trim();
+    (!name.is_empty()).then_some(name)
+}
+
+/// The OBJ text for tobj: without comments, including those after a statement
+/// (`f 1 2 3 # quad`), which tobj would otherwise read as indices; and with each
+/// `usemtl` and `mtllib` written `keyword name`, as tobj reads a name only after a
+/// single space at the start of the line.
 pub(super) fn strip_comments(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for line in text.lines() {
-        out.push_str(line.split('#').next().unwrap_or(""));
+        let line = line.split('#').next().unwrap_or("");
+        let named = ["usemtl", "mtllib"]
+            .into_iter()
+            .find_map(|k| argument(line, k).map(|name| (k, name)));
+        match named {
+            Some((keyword, name)) => {
+                out.push_str(keyword);
+                out.push(' ');
+                out.push_str(name);
+            }
+            None => out.push_str(line),
+        }
         out.push('\n');
     }
     out
 }
 
-/// Makes every colour statement (`Ka`, `Kd`, `Ks`, `Ke`) carry three numbers before tobj
-/// sees it: the MTL spec allows a single value for grey (`Kd 0.5` = `Kd 0.5 0.5 0.5`),
-/// and tobj 4.0 panics on fewer than three words. Zero or two values are an error
-/// naming the line.
-pub(super) fn normalize_mtl_colours(text: &str) -> Result<std::borrow::Cow<'_, str>, String> {
-    fn colour(line: &str) -> Option<(&str, Vec<&str>)> {
+/// The OBJ text (without comments) for tobj, which reads vertex colours only where
+/// every `v` has them: where some have colours (`v x y z r g b`) and others not, those
+/// without get white. A `v` of five or more than six numbers, colours that are not
+/// numbers, or a `w` among coloured vertices is an error naming its line.
+pub(super) fn pad_vertex_colours(text: &str) -> Result<Cow<'_, str>, String> {
+    let mut counts = [0usize; 2];
+    for (n, line) in text.lines().enumerate() {
         let mut words = line.split_whitespace();
-        let key = words.next()?;
-        matches!(key, "Ka" | "Kd" | "Ks" | "Ke").then(|| (key, words.take(3).collect()))
+        if words.next() != Some("v") {
+            continue;
+        }
+        let values: Vec<&str> = words.collect();
+        match values.len() {
+            3 | 4 => counts[0] += 1,
+            6 if values[3..].iter().all(|w| w.parse::<f32>().is_ok()) => counts[1] += 1,
+            6 => return Err(format!("line {}: the vertex colour is not three numbers", n + 1)),
+            k => {
+                return Err(format!(
+                    "line {}: a vertex has 3 coordinates (and w) or 3 and a colour r g b, not {k} numbers",
+                    n + 1
+                ))
+            }
+        }
     }
-    let needs_rewrite = text
-        .lines()
-        .any(|l| colour(l).is_some_and(|(_, values)| values.len() < 3));
-    if !needs_rewrite {
+    if counts[0] == 0 || counts[1] == 0 {
         return Ok(text.into());
     }
-    let mut out = String::with_capacity(text.len() + 64);
+    let mut out = String::with_capacity(text.len() + 6 * counts[0]);
     for (n, line) in text.lines().enumerate() {
-        match colour(line) {
-            Some((key, values)) if values.len() == 1 => {
-                let v = values[0];
-                out.push_str(&format!("{key} {v} {v} {v}"));
+        out.push_str(line);
+        let mut words = line.split_whitespace();
+        if words.next() == Some("v") {
+            match words.count() {
+                3 => out.push_str(" 1 1 1"),
+                4 => {
+                    return Err(format!(
+                        "line {}: a vertex with w among vertices with colours",
+                        n + 1
+                    ))
+                }
+                _ => {}
             }
-            Some((key, values)) if values.len() < 3 => {
-                return Err(format!(
-                    "line {}: {key} needs three numbers (or one for grey), got {}",
-                    n + 1,
-                    values.len()
-                ));
-            }
-            _ => out.push_str(line),
         }
         out.push('\n');
     }
@@ -54,20 +94,30 @@ mod tests {
     use super::*;
 
     #[test]
-    fn grey_colours_are_expanded_and_short_ones_refused() {
-        let text = "newmtl a\nKd 0.5\nKs 1 2 3\n";
+    fn names_after_any_blanks() {
+        assert_eq!(argument("usemtl  Red Paint \r", "usemtl"), Some("Red Paint"));
+        assert_eq!(argument("\tusemtl\tRed", "usemtl"), Some("Red"));
+        assert_eq!(argument("usemtl", "usemtl"), None);
+        assert_eq!(argument("usemtlx a", "usemtl"), None);
         assert_eq!(
-            normalize_mtl_colours(text).unwrap(),
-            "newmtl a\nKd 0.5 0.5 0.5\nKs 1 2 3\n"
+            strip_comments("usemtl\tRed # paint\nmtllib  a b.mtl\n"),
+            "usemtl Red\nmtllib a b.mtl\n"
         );
-        assert!(matches!(
-            normalize_mtl_colours("Kd 1 2 3\n").unwrap(),
-            std::borrow::Cow::Borrowed(_)
-        ));
-        let err = normalize_mtl_colours("newmtl a\nKe 1 2\n").unwrap_err();
+    }
+
+    #[test]
+    fn colours_go_to_every_vertex_or_none() {
+        let plain = "v 0 0 0\nv 1 0 0\n";
+        assert!(matches!(pad_vertex_colours(plain), Ok(Cow::Borrowed(_))));
+        let mixed = "v 0 0 0 1 0 0\nv 1 0 0\nvt 0 0\n";
         assert_eq!(
-            err,
-            "line 2: Ke needs three numbers (or one for grey), got 2"
+            pad_vertex_colours(mixed).unwrap(),
+            "v 0 0 0 1 0 0\nv 1 0 0 1 1 1\nvt 0 0\n"
         );
+        let err = pad_vertex_colours("v 0 0 0\nv 0 0 0 a b c\n").unwrap_err();
+        assert!(err.starts_with("line 2:"), "{err}");
+        let err = pad_vertex_colours("v 0 0 0 1 1\n").unwrap_err();
+        assert!(err.contains("not 5 numbers"), "{err}");
+        assert!(pad_vertex_colours("v 0 0 0 1 1 1\nv 0 0 0 2\n").is_err());
     }
 }

@@ -97,6 +97,7 @@ mod tests {
                 ],
                 triangles: vec![[0, 1, 2], [0, 2, 3]],
                 material: vec![0, 0],
+                ..TriangleMesh::default()
             };
             let tangents = mikktspace_tangents(&mesh, &[0, 1]);
             for tangent in tangents {

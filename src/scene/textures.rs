@@ -4,9 +4,10 @@
 //! channel of `map_Kd`, kept as linear 8-bit planes).
 //!
 //! A statement's value is `[-option args]... file name`: the options of the MTL
-//! specification are skipped with their arguments (`-bm` is kept, for bump maps), the
-//! rest of the line is the file name (spaces included), and backslashes are read as
-//! path separators.
+//! specification are skipped with their arguments (`-bm` is kept, for bump maps), and
+//! the rest of the line is the file name (spaces included), found by the rules of
+//! [`super::asset_paths`]. A file that is absent is a warning and the map is left out
+//! (an error with `--strict`); a file that is there but does not decode is an error.
 
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -14,13 +15,24 @@ use std::sync::Arc;
 
 use image::DynamicImage;
 
+use super::asset_paths;
+use super::warnings::Warnings;
 use super::{AlphaMap, SceneError, Texture, TextureKind};
 
+/// The material a texture statement belongs to, where its file names are looked up,
+/// and what replaces a map whose file is absent.
+pub(super) struct Referrer<'a> {
+    pub material: &'a str,
+    /// The folder of the MTL that names it first, then the OBJ's; empty for scenes in
+    /// memory, where every texture is absent.
+    pub folders: &'a [&'a Path],
+    /// For a warning: what the material uses where the map is absent.
+    pub instead: &'a str,
+}
+
 /// The textures and alpha maps of a scene as its materials name them.
+#[derive(Default)]
 pub(super) struct TextureLoader {
-    /// Where relative names are looked up: beside the OBJ, then beside each MTL.
-    /// Empty for scenes in memory, where every texture is "not found".
-    dirs: Vec<PathBuf>,
     pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
     /// Keyed by file, by how it is decoded and by whether it is a `map_Kd` (whose
@@ -31,38 +43,30 @@ pub(super) struct TextureLoader {
 }
 
 impl TextureLoader {
-    pub fn new(dirs: Vec<PathBuf>) -> Self {
-        TextureLoader {
-            dirs,
-            textures: Vec::new(),
-            alpha_maps: Vec::new(),
-            texture_ids: HashMap::new(),
-            alpha_ids: HashMap::new(),
-        }
-    }
-
     /// A `map_Kd`: the index of its colour texture, and of its alpha channel as an
-    /// alpha map when it has a non-opaque one.
+    /// alpha map when it has a non-opaque one; `None` when its file is absent.
     pub fn diffuse(
         &mut self,
         statement: &str,
-        material: &str,
-    ) -> Result<(u32, Option<u32>), SceneError> {
-        self.load(statement, "map_Kd", material, TextureKind::Colour)
-            .map(|(loaded, _)| loaded)
+        referrer: &Referrer<'_>,
+        warnings: &mut Warnings,
+    ) -> Result<Option<(u32, Option<u32>)>, SceneError> {
+        let loaded = self.load(statement, "map_Kd", referrer, TextureKind::Colour, warnings)?;
+        Ok(loaded.map(|(ids, _)| ids))
     }
 
     /// Any other texture map: its index, and the `-bm` multiplier of its statement
-    /// (1 when absent).
+    /// (1 when absent); `None` when its file is absent.
     pub fn texture(
         &mut self,
         statement: &str,
         slot: &'static str,
-        material: &str,
+        referrer: &Referrer<'_>,
         kind: TextureKind,
-    ) -> Result<(u32, f32), SceneError> {
-        self.load(statement, slot, material, kind)
-            .map(|((id, _), bump_scale)| (id, bump_scale))
+        warnings: &mut Warnings,
+    ) -> Result<Option<(u32, f32)>, SceneError> {
+        let loaded = self.load(statement, slot, referrer, kind, warnings)?;
+        Ok(loaded.map(|((id, _), bump_scale)| (id, bump_scale)))
     }
 
     /// Decodes the file of a texture statement once per kind (a `map_Kd` also gets its
@@ -71,13 +75,17 @@ impl TextureLoader {
         &mut self,
         statement: &str,
         slot: &'static str,
-        material: &str,
+        referrer: &Referrer<'_>,
         kind: TextureKind,
-    ) -> Result<((u32, Option<u32>), f32), SceneError> {
-        let (file, options) = self.find(statement, slot, material)?;
+        warnings: &mut Warnings,
+    ) -> Result<Option<((u32, Option<u32>), f32)>, SceneError> {
+        let Some((file, options)) = find(statement, slot, referrer, warnings)? else {
+            return Ok(None);
+        };
+        let material = referrer.material;
         let key = (file, kind, slot == "map_Kd");
         if let Some(&ids) = self.texture_ids.get(&key) {
-            return Ok((ids, options.bump_scale));
+            return Ok(Some((ids, options.bump_scale)));
         }
         let bytes_per_texel = if kind == TextureKind::Scalar { 4 } else { 12 };
         let image = decode(&key.0, bytes_per_texel)
@@ -96,45 +104,53 @@ impl TextureLoader {
             .push(Arc::new(Texture::from_image(image, kind)));
         let ids = (self.textures.len() as u32 - 1, alpha);
         self.texture_ids.insert(key, ids);
-        Ok((ids, options.bump_scale))
+        Ok(Some((ids, options.bump_scale)))
     }
 
-    /// A `map_d`: the index of its alpha map (alpha channel, else luminance).
-    pub fn opacity(&mut self, statement: &str, material: &str) -> Result<u32, SceneError> {
-        let (file, _) = self.find(statement, "map_d", material)?;
+    /// A `map_d`: the index of its alpha map (alpha channel, else luminance); `None`
+    /// when its file is absent.
+    pub fn opacity(
+        &mut self,
+        statement: &str,
+        referrer: &Referrer<'_>,
+        warnings: &mut Warnings,
+    ) -> Result<Option<u32>, SceneError> {
+        let Some((file, _)) = find(statement, "map_d", referrer, warnings)? else {
+            return Ok(None);
+        };
         let key = (file, true);
         if let Some(&id) = self.alpha_ids.get(&key) {
-            return Ok(id);
+            return Ok(Some(id));
         }
-        let image = decode(&key.0, 4).map_err(|reason| error(&key.0, "map_d", material, reason))?;
+        let image = decode(&key.0, 4)
+            .map_err(|reason| error(&key.0, "map_d", referrer.material, reason))?;
         self.alpha_maps
             .push(Arc::new(AlphaMap::from_opacity_image(&image)));
         let id = self.alpha_maps.len() as u32 - 1;
         self.alpha_ids.insert(key, id);
-        Ok(id)
+        Ok(Some(id))
     }
+}
 
-    /// The file a texture statement names, found next to the OBJ or one of its MTL
-    /// files, and the statement's options.
-    fn find(
-        &self,
-        statement: &str,
-        slot: &'static str,
-        material: &str,
-    ) -> Result<(PathBuf, TextureOptions), SceneError> {
-        let options = parse_statement(statement)
-            .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
-        let file = find_texture(&options.file, &self.dirs).ok_or_else(|| {
-            let dir = self.dirs.first().map_or(Path::new(""), PathBuf::as_path);
-            error(
-                &dir.join(&options.file),
-                slot,
-                material,
-                "file not found".into(),
-            )
-        })?;
-        Ok((file, options))
-    }
+/// The file a texture statement names and the statement's options; `None` (with a
+/// warning) when the file is absent.
+fn find(
+    statement: &str,
+    slot: &'static str,
+    referrer: &Referrer<'_>,
+    warnings: &mut Warnings,
+) -> Result<Option<(PathBuf, TextureOptions)>, SceneError> {
+    let material = referrer.material;
+    let options = parse_statement(statement)
+        .map_err(|reason| error(Path::new(statement.trim()), slot, material, reason))?;
+    let found = asset_paths::find(&options.file, referrer.folders);
+    let written = referrer
+        .folders
+        .first()
+        .map_or(PathBuf::from(&options.file), |dir| dir.join(&options.file));
+    let missing = |reason| error(&written, slot, material, reason);
+    let file = warnings.located(&options.file, found, missing, referrer.instead)?;
+    Ok(file.map(|file| (file, options)))
 }
 
 fn error(path: &Path, slot: &'static str, material: &str, reason: String) -> SceneError {
@@ -144,12 +160,6 @@ fn error(path: &Path, slot: &'static str, material: &str, reason: String) -> Sce
         material: material.to_owned(),
         reason,
     }
-}
-
-/// Finds a texture file next to the OBJ or one of its MTL files.
-fn find_texture(name: &str, dirs: &[PathBuf]) -> Option<PathBuf> {
-    let name = name.replace('\\', "/");
-    dirs.iter().map(|d| d.join(&name)).find(|p| p.is_file())
 }
 
 /// What a texture statement says besides which file.

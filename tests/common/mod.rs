@@ -50,6 +50,7 @@ pub fn build(triangles: &[([Vec3; 3], u32)], materials: Vec<Material>) -> Built 
         uvs: Vec::new(),
         triangles: tris,
         material,
+        colours: Vec::new(),
     };
     with_embree(Scene::new(mesh, materials, Vec::new()))
 }
