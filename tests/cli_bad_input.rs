@@ -170,10 +170,12 @@ fn only_degenerate_triangles() {
     );
 }
 
+/// Absent inputs are warnings by default (`tests/downloaded_scenes.rs`); `--strict`
+/// makes them errors.
 #[test]
-fn missing_mtllib() {
+fn missing_mtllib_with_strict() {
     let obj = format!("mtllib missing.mtl\nusemtl red\n{TRIANGLE}");
-    render_files(&[("scene.obj", obj.as_bytes())], &[], "missing.mtl");
+    render_files(&[("scene.obj", obj.as_bytes())], &["--strict"], "missing.mtl");
 }
 
 #[test]
@@ -185,19 +187,19 @@ fn malformed_mtl() {
             ("bad.mtl", b"newmtl red\nKd 1 zebra 0\n"),
         ],
         &[],
-        "bad.mtl",
+        "bad.mtl:2: material \"red\": Kd: expected a finite number, found \"zebra\"",
     );
 }
 
 #[test]
-fn missing_texture() {
+fn missing_texture_with_strict() {
     let obj = format!("mtllib t.mtl\nusemtl wood\n{TRIANGLE}");
     render_files(
         &[
             ("scene.obj", obj.as_bytes()),
             ("t.mtl", b"newmtl wood\nKd 1 1 1\nmap_Kd wood.png\n"),
         ],
-        &[],
+        &["--strict"],
         "wood.png",
     );
 }
@@ -217,7 +219,7 @@ fn texture_that_is_not_an_image() {
 }
 
 #[test]
-fn missing_normal_map() {
+fn missing_normal_map_with_strict() {
     let obj = format!("mtllib t.mtl\nusemtl wood\n{TRIANGLE}");
     render_files(
         &[
@@ -227,7 +229,7 @@ fn missing_normal_map() {
                 b"newmtl wood\nKd 1 1 1\nnorm -bm 1 wood normals.png\n",
             ),
         ],
-        &[],
+        &["--strict"],
         "wood normals.png",
     );
 }

@@ -117,6 +117,7 @@ fn a_placed_mesh_renders_as_the_mesh_baked_into_world_space_on_both_backends() {
     let baked = load_obj_from_str(
         &baked_obj(&original, &t),
         &HashMap::from([("box.mtl".to_string(), mtl)]),
+        &Default::default(),
     )
     .unwrap()
     .0;

@@ -14,7 +14,7 @@ mod common;
 use std::collections::HashMap;
 
 use common::fuzz::render_tiny;
-use ember::scene::{check_against_tobj, load_obj_from_str, Scene};
+use ember::scene::{check_against_tobj, load_obj_from_str, LoadOptions, Scene};
 use proptest::prelude::*;
 
 /// An input: OBJ text and its in-memory material libraries.
@@ -188,7 +188,7 @@ fn check(input: &Input) -> Result<bool, TestCaseError> {
     // The parallel OBJ reader either leaves the input to tobj or reads it as tobj does.
     let oracle = check_against_tobj(&input.obj, &input.mtl);
     prop_assert!(oracle.is_ok(), "parallel reader against tobj: {:?}", oracle);
-    let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl) else {
+    let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl, &LoadOptions::default()) else {
         return Ok(false);
     };
     check_scene(&scene, input)?;
@@ -254,7 +254,7 @@ mod regressions {
     #[test]
     fn face_index_claiming_billions_fails_fast() {
         let obj = "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3000000000\n";
-        let err = load_obj_from_str(obj, &HashMap::new())
+        let err = load_obj_from_str(obj, &HashMap::new(), &LoadOptions::default())
             .unwrap_err()
             .to_string();
         assert!(
@@ -280,12 +280,12 @@ mod regressions {
     fn colour_with_fewer_than_three_numbers_does_not_panic() {
         for colour in ["Ks", "Kd 0.5 0.5", "Ke # x", "Ka\t"] {
             let mtl = HashMap::from([("a.mtl".to_owned(), format!("newmtl m\n{colour}\n"))]);
-            let err = load_obj_from_str(TRIANGLE, &mtl).unwrap_err().to_string();
-            assert!(err.contains("a.mtl") && err.contains("line 2"), "{err}");
+            let err = load_obj_from_str(TRIANGLE, &mtl, &LoadOptions::default()).unwrap_err().to_string();
+            assert!(err.contains("a.mtl:2:"), "{err}");
         }
         // One number is grey, as the MTL spec says.
         let mtl = HashMap::from([("a.mtl".to_owned(), "newmtl m\nKd 0.25\r\n".to_owned())]);
-        let (scene, _) = load_obj_from_str(TRIANGLE, &mtl).unwrap();
+        let (scene, _) = load_obj_from_str(TRIANGLE, &mtl, &LoadOptions::default()).unwrap();
         assert_eq!(scene.materials[0].diffuse, glam::Vec3::splat(0.25));
     }
 
@@ -302,7 +302,7 @@ mod regressions {
             "l 1/-99999999999 2",
             "p -9223372036854775808",
         ] {
-            let err = load_obj_from_str(&format!("{base}{face}\n"), &HashMap::new());
+            let err = load_obj_from_str(&format!("{base}{face}\n"), &HashMap::new(), &LoadOptions::default());
             assert!(err.unwrap_err().to_string().contains("line 6"), "{face}");
         }
         loads_or_errs(&format!("{base}f 1/0/0 2/1/1 3/1/1\n"), &[]);
@@ -311,6 +311,7 @@ mod regressions {
         let err = load_obj_from_str(
             &format!("{base}f 1//-2 2//1 3//1\nvn 0 0 1\n"),
             &HashMap::new(),
+            &LoadOptions::default(),
         );
         assert!(err.unwrap_err().to_string().contains("1 normals before it"));
     }
@@ -324,17 +325,22 @@ mod regressions {
         loads_or_errs("v -3e38 -3e38 0\nv 3e38 0 0\nv 0 3e38 1e30\nf 1 2 3\n", &[]);
     }
 
+    /// A library that is not there is a warning naming it, or with `strict` the error.
     #[test]
-    fn missing_in_memory_library_is_an_error() {
+    fn missing_in_memory_library_is_a_warning_or_with_strict_an_error() {
         let obj = "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
-        let err = load_obj_from_str(obj, &HashMap::new()).unwrap_err();
+        let (_, report) = load_obj_from_str(obj, &HashMap::new(), &LoadOptions::default()).unwrap();
+        assert_eq!(report.warnings.len(), 1, "{:?}", report.warnings);
+        assert!(report.warnings[0].contains("nope.mtl"), "{:?}", report.warnings);
+        let strict = LoadOptions { strict: true };
+        let err = load_obj_from_str(obj, &HashMap::new(), &strict).unwrap_err();
         assert!(err.to_string().contains("nope.mtl"), "{err}");
     }
 
     #[test]
     fn in_memory_cornell_box_matches_the_file() {
         let mtl = HashMap::from([("CornellBox-Original.mtl".to_owned(), CORNELL_MTL.to_owned())]);
-        let (memory, _) = load_obj_from_str(CORNELL_OBJ, &mtl).unwrap();
+        let (memory, _) = load_obj_from_str(CORNELL_OBJ, &mtl, &LoadOptions::default()).unwrap();
         let path = concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/meshes/CornellBox-Original.obj"

@@ -83,7 +83,7 @@ proptest! {
         };
         match SceneFile::parse(path, text.clone()) {
             Err(e) => check(&e),
-            Ok(file) => match file.load_scene() {
+            Ok(file) => match file.load_scene(&Default::default()) {
                 Err(e) => check(&e),
                 Ok((scene, _)) => {
                     let (lo, hi) = scene.bounds();

@@ -122,7 +122,14 @@ newmtl plastic\nKd 0.5 0.5 0.5\nKs 0.1 0.1 0.1\nNs 200\n";
     // `d` < 1 is opacity (a cut-out), not glass; the other materials are opaque.
     assert_eq!(by_tri[3].opacity, 0.1);
     assert!(by_tri.iter().filter(|m| !m.is_opaque()).count() == 1);
-    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    // The undefined material is one warning, naming the OBJ's line and the name.
+    let [warning] = report.warnings.as_slice() else {
+        panic!("{:?}", report.warnings);
+    };
+    assert!(
+        warning.contains("scene.obj:15: usemtl \"undefined\""),
+        "{warning}"
+    );
     assert_eq!(by_tri[5].name, "default");
 }
 

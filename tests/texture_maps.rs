@@ -17,7 +17,7 @@ use common::{with_embree, Built};
 use ember::accel::{Hit, Ray};
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::sampling::Rng;
-use ember::scene::{load_obj, Scene, SceneError};
+use ember::scene::{load_obj, load_obj_with, LoadOptions, Scene, SceneError};
 use glam::Vec3;
 use image::{DynamicImage, GrayImage, Luma, Rgb, Rgb32FImage, RgbImage};
 
@@ -344,24 +344,29 @@ fn names_with_spaces_backslashes_and_options() {
     assert_eq!(scene.albedo(&centre(&scene)), Vec3::ONE);
 }
 
+/// A texture that is absent is one warning naming the slot (the scene loads without the
+/// map), or with `strict` the error; one that is there but damaged, or a statement
+/// that does not read, is an error either way.
 #[test]
-fn missing_corrupt_or_badly_optioned_textures_are_one_line_errors() {
+fn missing_corrupt_or_badly_optioned_textures() {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("bad.png"), b"not an image").unwrap();
     let cases = [
-        ("map_Ks gone.png", "map_Ks", "not found"),
-        ("norm gone.png", "norm", "not found"),
-        ("map_Pr bad.png", "map_Pr", "bad.png"),
-        ("bump -bm x h.png", "bump", "-bm"),
-        ("map_Ke -frobnicate 1 e.png", "map_Ke", "-frobnicate"),
+        ("map_Ks gone.png", "map_Ks", "not found", true),
+        ("norm gone.png", "norm", "not found", true),
+        ("map_Pr bad.png", "map_Pr", "bad.png", false),
+        ("bump -bm x h.png", "bump", "-bm", false),
+        ("map_Ke -frobnicate 1 e.png", "map_Ke", "-frobnicate", false),
     ];
-    for (statement, slot, detail) in cases {
+    for (statement, slot, detail, absent) in cases {
         let obj = "mtllib scene.mtl\nusemtl m\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         std::fs::write(dir.path().join("scene.obj"), obj).unwrap();
         let mtl = format!("newmtl m\nKd 1 1 1\n{statement}\n");
         std::fs::write(dir.path().join("scene.mtl"), mtl).unwrap();
-        let message = match load_obj(&dir.path().join("scene.obj")) {
-            Ok(_) => panic!("{statement} loaded"),
+        let path = dir.path().join("scene.obj");
+        let strict = LoadOptions { strict: true };
+        let message = match load_obj_with(&path, &strict) {
+            Ok(_) => panic!("{statement} loaded with --strict"),
             Err(e) => e.to_string(),
         };
         assert!(!message.contains('\n'), "{message}");
@@ -369,6 +374,18 @@ fn missing_corrupt_or_badly_optioned_textures_are_one_line_errors() {
             message.contains(slot) && message.contains(detail),
             "{statement}: {message}"
         );
+        match load_obj(&path) {
+            Ok((scene, report)) => {
+                assert!(absent, "{statement} loaded");
+                let [warning] = report.warnings.as_slice() else {
+                    panic!("{statement}: {:?}", report.warnings);
+                };
+                assert!(warning.starts_with(&message), "{warning} vs {message}");
+                let maps = &scene.materials[0].maps;
+                assert!(maps.specular.is_none() && maps.normal.is_none());
+            }
+            Err(e) => assert!(!absent && e.to_string() == message, "{statement}: {e}"),
+        }
     }
     let message = point_scene("Pr 2", &[]).err().unwrap().to_string();
     assert!(message.contains("Pr"), "{message}");

@@ -76,7 +76,7 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         load_obj_with(path, options)?
     };
     for warning in &report.warnings {
-        eprintln!("warning: {}: {warning}", path.display());
+        eprintln!("warning: {warning}");
     }
     println!("{}: {}", path.display(), report.summary());
     let (lo, hi) = scene.bounds();

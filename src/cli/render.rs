@@ -879,7 +879,7 @@ fn write_both(
 fn report_loading(plan: &RenderPlan, loaded: &LoadedScene) {
     let report = &loaded.report;
     for warning in &report.warnings {
-        eprintln!("warning: {}: {warning}", plan.scene.display());
+        eprintln!("warning: {warning}");
     }
     if loaded.unlit {
         eprintln!(

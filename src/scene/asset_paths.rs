@@ -43,19 +43,13 @@ pub(super) struct Found {
 
 impl Found {
     /// How it was found, for a warning (`None` for a file found as written).
-    pub fn how(&self, written: &str) -> Option<String> {
+    pub fn how(&self) -> Option<String> {
         let at = self.path.display();
         match self.rule {
             Rule::AsWritten => None,
-            Rule::Backslashes => Some(format!(
-                "{written:?} was found as {at}, reading its backslashes as separators"
-            )),
-            Rule::FileName => Some(format!(
-                "{written:?} is not there; a file of the same name was found at {at}"
-            )),
-            Rule::IgnoringCase => Some(format!(
-                "{written:?} is not there; {at} was found by ignoring upper and lower case"
-            )),
+            Rule::Backslashes => Some(format!("found as {at}, reading backslashes as separators")),
+            Rule::FileName => Some(format!("found by its file name alone, at {at}")),
+            Rule::IgnoringCase => Some(format!("found at {at} by ignoring upper and lower case")),
         }
     }
 }

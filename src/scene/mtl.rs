@@ -277,19 +277,23 @@ fn illum(values: &str) -> Result<u8, String> {
 fn colour(values: &str) -> Result<Option<[f32; 3]>, String> {
     let words: Vec<&str> = words(values).collect();
     let expected = "expected three numbers (or one for grey, or xyz X Y Z)";
+    let values = match words.is_empty() {
+        true => "nothing".to_owned(),
+        false => format!("{:?}", words.join(" ")),
+    };
     match words.as_slice() {
         [first, ..] if first.eq_ignore_ascii_case("spectral") => Ok(None),
         [first, rest @ ..] if first.eq_ignore_ascii_case("xyz") => {
             let xyz = match rest {
                 [x] => [finite(x)?; 3],
                 [x, y, z, ..] => [finite(x)?, finite(y)?, finite(z)?],
-                _ => return Err(format!("{expected}, found {values:?}")),
+                _ => return Err(format!("{expected}, found {values}")),
             };
             Ok(Some(xyz_to_linear_srgb(xyz)))
         }
         [grey] => Ok(Some([finite(grey)?; 3])),
         [r, g, b, ..] => Ok(Some([finite(r)?, finite(g)?, finite(b)?])),
-        _ => Err(format!("{expected}, found {values:?}")),
+        _ => Err(format!("{expected}, found {values}")),
     }
 }
 

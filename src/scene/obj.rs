@@ -35,7 +35,8 @@ pub struct LoadReport {
     pub degenerate_dropped: usize,
     /// How the file wrote its vertex colours (`v x y z r g b`), if it has them.
     pub vertex_colours: Option<VertexColours>,
-    /// Non-fatal oddities, one line each (for example a `usemtl` with no definition).
+    /// Non-fatal oddities, one line each, each naming its file (for example a `usemtl`
+    /// with no definition).
     pub warnings: Vec<String>,
 }
 
@@ -237,7 +238,7 @@ impl Sources<'_> {
             Sources::Disk { dir } => {
                 let found = asset_paths::find(written, &[dir]);
                 let missing = |reason| error(dir.join(written), reason);
-                let Some(path) = warnings.located(written, found, missing, INSTEAD_OF_LIBRARY)?
+                let Some(path) = warnings.located(found, missing, INSTEAD_OF_LIBRARY)?
                 else {
                     return Ok(None);
                 };
@@ -394,6 +395,7 @@ fn load_obj_text(
     };
     let mut loader = TextureLoader::default();
     let sources = MaterialSources {
+        obj: path,
         libraries: &libraries,
         obj_dir,
     };
@@ -563,6 +565,7 @@ fn unusable_value(m: &tobj::Material) -> Option<String> {
 /// Where the materials came from: their libraries in load order (each gave the next
 /// `materials` of the list) and the OBJ's folder (none in memory).
 struct MaterialSources<'a> {
+    obj: &'a Path,
     libraries: &'a [Library],
     obj_dir: Option<&'a Path>,
 }
@@ -647,7 +650,8 @@ fn build_materials(
         materials.push(material);
     }
     if !zero_opacity.is_empty() {
-        warnings.push(zero_opacity_warning(&zero_opacity));
+        let warning = zero_opacity_warning(&zero_opacity);
+        warnings.push(format!("{}: {warning}", sources.obj.display()));
     }
     Ok(materials)
 }

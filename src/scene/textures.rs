@@ -149,7 +149,7 @@ fn find(
         .first()
         .map_or(PathBuf::from(&options.file), |dir| dir.join(&options.file));
     let missing = |reason| error(&written, slot, material, reason);
-    let file = warnings.located(&options.file, found, missing, referrer.instead)?;
+    let file = warnings.located(found, missing, referrer.instead)?;
     Ok(file.map(|file| (file, options)))
 }
 

@@ -44,13 +44,12 @@ impl Warnings {
         Ok(())
     }
 
-    /// The file found for the name `written` (see [`super::asset_paths::find`]), with a
-    /// warning saying how when a later rule found it; `None` (warned) or an error
+    /// The file found for a name (by [`super::asset_paths::find`]), with a warning
+    /// saying how when a later rule found it; `None` (warned) or an error
     /// (`strict`) when it is absent. `missing` makes the error of an absent file from
     /// its reason; `instead` says what is used in its place.
     pub fn located(
         &mut self,
-        written: &str,
         found: Option<Found>,
         missing: impl FnOnce(String) -> SceneError,
         instead: &str,
@@ -59,18 +58,20 @@ impl Warnings {
             self.absent(missing("file not found".into()), instead)?;
             return Ok(None);
         };
-        let how = found.how(written);
+        let Some(how) = found.how() else {
+            return Ok(Some(found.path));
+        };
         if self.strict && !found.rule.strict_accepts() {
-            let how = how.unwrap_or_default();
             return Err(missing(format!(
-                "file not found ({how}, which --strict does not accept)"
+                "file not found as written ({how}, which --strict does not accept)"
             )));
         }
-        if let Some(how) = how {
-            // Said as the error would name the file, so the warning names its referrer.
-            let subject = missing(how).to_string();
-            self.lines.push(subject);
-        }
+        // Said as the error would say it, so that the warning names what refers to it.
+        let reason = match found.rule.strict_accepts() {
+            true => how,
+            false => format!("not found as written; {how}"),
+        };
+        self.lines.push(missing(reason).to_string());
         Ok(Some(found.path))
     }
 }
