@@ -175,7 +175,11 @@ fn only_degenerate_triangles() {
 #[test]
 fn missing_mtllib_with_strict() {
     let obj = format!("mtllib missing.mtl\nusemtl red\n{TRIANGLE}");
-    render_files(&[("scene.obj", obj.as_bytes())], &["--strict"], "missing.mtl");
+    render_files(
+        &[("scene.obj", obj.as_bytes())],
+        &["--strict"],
+        "missing.mtl",
+    );
 }
 
 #[test]

@@ -188,7 +188,8 @@ fn check(input: &Input) -> Result<bool, TestCaseError> {
     // The parallel OBJ reader either leaves the input to tobj or reads it as tobj does.
     let oracle = check_against_tobj(&input.obj, &input.mtl);
     prop_assert!(oracle.is_ok(), "parallel reader against tobj: {:?}", oracle);
-    let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl, &LoadOptions::default()) else {
+    let Ok((scene, report)) = load_obj_from_str(&input.obj, &input.mtl, &LoadOptions::default())
+    else {
         return Ok(false);
     };
     check_scene(&scene, input)?;
@@ -280,7 +281,9 @@ mod regressions {
     fn colour_with_fewer_than_three_numbers_does_not_panic() {
         for colour in ["Ks", "Kd 0.5 0.5", "Ke # x", "Ka\t"] {
             let mtl = HashMap::from([("a.mtl".to_owned(), format!("newmtl m\n{colour}\n"))]);
-            let err = load_obj_from_str(TRIANGLE, &mtl, &LoadOptions::default()).unwrap_err().to_string();
+            let err = load_obj_from_str(TRIANGLE, &mtl, &LoadOptions::default())
+                .unwrap_err()
+                .to_string();
             assert!(err.contains("a.mtl:2:"), "{err}");
         }
         // One number is grey, as the MTL spec says.
@@ -302,7 +305,11 @@ mod regressions {
             "l 1/-99999999999 2",
             "p -9223372036854775808",
         ] {
-            let err = load_obj_from_str(&format!("{base}{face}\n"), &HashMap::new(), &LoadOptions::default());
+            let err = load_obj_from_str(
+                &format!("{base}{face}\n"),
+                &HashMap::new(),
+                &LoadOptions::default(),
+            );
             assert!(err.unwrap_err().to_string().contains("line 6"), "{face}");
         }
         loads_or_errs(&format!("{base}f 1/0/0 2/1/1 3/1/1\n"), &[]);
@@ -331,7 +338,11 @@ mod regressions {
         let obj = "mtllib nope.mtl\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
         let (_, report) = load_obj_from_str(obj, &HashMap::new(), &LoadOptions::default()).unwrap();
         assert_eq!(report.warnings.len(), 1, "{:?}", report.warnings);
-        assert!(report.warnings[0].contains("nope.mtl"), "{:?}", report.warnings);
+        assert!(
+            report.warnings[0].contains("nope.mtl"),
+            "{:?}",
+            report.warnings
+        );
         let strict = LoadOptions { strict: true };
         let err = load_obj_from_str(obj, &HashMap::new(), &strict).unwrap_err();
         assert!(err.to_string().contains("nope.mtl"), "{err}");

@@ -123,6 +123,17 @@ fn unusual_statements_and_errors_are_left_to_tobj() {
     }
 }
 
+/// Vertex colours on every vertex are read here, as tobj reads them; on some vertices
+/// only, they are left to tobj (where ember gives the others white first).
+#[test]
+fn vertex_colours_read_as_tobj_reads_them() {
+    let coloured = "v 0 0 0 1 0 0\nv 1 0 0 0 1 0\nv 0 1 0 0 0 255\nvt 0 0\n\
+                    f 1/1 2/1 3/1\nv 1 1 0 0.5 0.5 0.5 # grey\nf -1 -2 -3\n";
+    assert_eq!(check_against_tobj(coloured, &HashMap::new()), Ok(true));
+    let mixed = "v 0 0 0 1 0 0\nv 1 0 0\nv 0 1 0 0 0 1\nf 1 2 3\n";
+    assert_eq!(check_against_tobj(mixed, &HashMap::new()), Ok(false));
+}
+
 /// Large enough to be cut into several chunks, with relative indices reaching across
 /// chunk boundaries and models spanning them.
 #[test]

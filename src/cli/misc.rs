@@ -63,7 +63,12 @@ pub struct InfoArgs {
 
 pub fn info(args: InfoArgs) -> Result<()> {
     match &args.scene {
-        Some(scene) => scene_info(scene, &LoadOptions { strict: args.strict }),
+        Some(scene) => scene_info(
+            scene,
+            &LoadOptions {
+                strict: args.strict,
+            },
+        ),
         None => build_info(),
     }
 }

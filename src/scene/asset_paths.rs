@@ -174,7 +174,10 @@ mod tests {
         assert_eq!(rule("a.png"), Some((d.join("a.png"), Rule::AsWritten)));
         let absolute = d.join("a.png").display().to_string();
         assert_eq!(rule(&absolute), Some((d.join("a.png"), Rule::AsWritten)));
-        assert_eq!(rule("sub\\b.png"), Some((d.join("sub/b.png"), Rule::Backslashes)));
+        assert_eq!(
+            rule("sub\\b.png"),
+            Some((d.join("sub/b.png"), Rule::Backslashes))
+        );
         assert_eq!(
             rule("C:\\Users\\x\\a.png"),
             Some((d.join("a.png"), Rule::FileName))

@@ -269,7 +269,9 @@ fn illum(values: &str) -> Result<u8, String> {
             Ok(v) if v.fract() == 0.0 && (0.0..=255.0).contains(&v) => Some(v as u8),
             _ => None,
         });
-    whole.ok_or_else(|| format!("expected an illumination model (a whole number 0-10), found {word:?}"))
+    whole.ok_or_else(|| {
+        format!("expected an illumination model (a whole number 0-10), found {word:?}")
+    })
 }
 
 /// A colour: `r g b`, `grey`, `xyz X [Y Z]`, or `spectral FILE [factor]` (`None`).
@@ -401,7 +403,8 @@ mod tests {
 
     #[test]
     fn colour_forms() {
-        let m = one("newmtl m\nKd 0.5\nKs xyz 0.9505 1 1.089\nKe 1 2 3 # comment\nKa spectral x.rfl\n");
+        let m =
+            one("newmtl m\nKd 0.5\nKs xyz 0.9505 1 1.089\nKe 1 2 3 # comment\nKa spectral x.rfl\n");
         assert_eq!(m.diffuse, Some([0.5; 3]));
         // D65 white is (1, 1, 1) in linear sRGB.
         let ks = m.specular.unwrap();
@@ -431,10 +434,22 @@ mod tests {
     #[test]
     fn errors_name_the_line_and_what_was_expected() {
         let cases = [
-            ("newmtl m\nKd 1 zebra 0\n", 2, "Kd: expected a finite number, found \"zebra\""),
+            (
+                "newmtl m\nKd 1 zebra 0\n",
+                2,
+                "Kd: expected a finite number, found \"zebra\"",
+            ),
             ("newmtl m\n\nKe 1 2\n", 3, "Ke: expected three numbers"),
-            ("newmtl m\nNi inf\n", 2, "material \"m\": Ni: expected a finite number"),
-            ("newmtl m\nillum two\n", 2, "illum: expected an illumination model"),
+            (
+                "newmtl m\nNi inf\n",
+                2,
+                "material \"m\": Ni: expected a finite number",
+            ),
+            (
+                "newmtl m\nillum two\n",
+                2,
+                "illum: expected an illumination model",
+            ),
             ("newmtl m\nmap_Kd\n", 2, "map_Kd: expected a file name"),
             ("newmtl m\nbump -bm x h.png\n", 2, "-bm"),
             ("Kd 1 1 1\nnewmtl \n", 2, "newmtl: expected a material name"),

@@ -44,9 +44,9 @@ impl LoadReport {
     /// `12 triangles, 3 materials, 2 emissive triangles, vertex colours (0-255), 1 warning`:
     /// the counts, with the vertex colours and the warnings where there are any.
     pub fn summary(&self) -> String {
-        let colours = self
-            .vertex_colours
-            .map_or(String::new(), |c| format!(", vertex colours ({})", c.range()));
+        let colours = self.vertex_colours.map_or(String::new(), |c| {
+            format!(", vertex colours ({})", c.range())
+        });
         let warnings = match self.warnings.len() {
             0 => String::new(),
             1 => ", 1 warning".to_owned(),
@@ -238,8 +238,7 @@ impl Sources<'_> {
             Sources::Disk { dir } => {
                 let found = asset_paths::find(written, &[dir]);
                 let missing = |reason| error(dir.join(written), reason);
-                let Some(path) = warnings.located(found, missing, INSTEAD_OF_LIBRARY)?
-                else {
+                let Some(path) = warnings.located(found, missing, INSTEAD_OF_LIBRARY)? else {
                     return Ok(None);
                 };
                 let text = read_text(&path).map_err(|e| error(path.clone(), e.to_string()))?;
@@ -313,7 +312,10 @@ pub fn load_obj(path: &Path) -> Result<(Scene, LoadReport), SceneError> {
 ///
 /// A file too large for the memory available (see [`crate::limits`]) is refused
 /// before it is read.
-pub fn load_obj_with(path: &Path, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneError> {
+pub fn load_obj_with(
+    path: &Path,
+    options: &LoadOptions,
+) -> Result<(Scene, LoadReport), SceneError> {
     let io = |source| SceneError::Io {
         path: path.to_owned(),
         source,
@@ -579,7 +581,10 @@ impl MaterialSources<'_> {
             first += l.materials;
             index < first
         });
-        let mut folders: Vec<&Path> = library.and_then(|l| l.folder.as_deref()).into_iter().collect();
+        let mut folders: Vec<&Path> = library
+            .and_then(|l| l.folder.as_deref())
+            .into_iter()
+            .collect();
         if let Some(dir) = self.obj_dir.filter(|d| !folders.contains(d)) {
             folders.push(dir);
         }

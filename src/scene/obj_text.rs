@@ -95,7 +95,10 @@ mod tests {
 
     #[test]
     fn names_after_any_blanks() {
-        assert_eq!(argument("usemtl  Red Paint \r", "usemtl"), Some("Red Paint"));
+        assert_eq!(
+            argument("usemtl  Red Paint \r", "usemtl"),
+            Some("Red Paint")
+        );
         assert_eq!(argument("\tusemtl\tRed", "usemtl"), Some("Red"));
         assert_eq!(argument("usemtl", "usemtl"), None);
         assert_eq!(argument("usemtlx a", "usemtl"), None);
