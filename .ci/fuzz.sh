@@ -3,6 +3,7 @@
 # the fuzz targets tests/fuzz_*.rs, on the stable toolchain (proptest):
 #   fuzz_obj           OBJ + MTL text (grammar-based, and byte mutations of the Cornell box)
 #   fuzz_mtl_textures  MTL texture statements, their options and damaged image files
+#   fuzz_mtl_layouts   MTL files laid out as exporters lay them out, against clean ones
 #   fuzz_film_files    shard and checkpoint files (crafted headers, damaged pixels, valid checksums)
 # Each target's test is the function named like it with its fuzz_ prefix. The address
 # space is capped so that an input which makes ember allocate without bound fails the

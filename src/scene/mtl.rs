@@ -401,6 +401,45 @@ mod tests {
         assert_eq!(mac.diffuse_texture, clean.diffuse_texture);
     }
 
+    /// The libraries ember ships read as tobj read them, field for field.
+    #[test]
+    fn shipped_libraries_read_as_tobj_read_them() {
+        let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("meshes");
+        let mut read = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "mtl") {
+                continue;
+            }
+            let text = std::fs::read_to_string(&path).unwrap();
+            let ours = parse_mtl(&text).unwrap();
+            assert!(ours.warnings.is_empty(), "{path:?}: {:?}", ours.warnings);
+            let (theirs, _) = tobj::load_mtl_buf(&mut text.as_bytes()).unwrap();
+            assert_eq!(ours.materials.len(), theirs.len(), "{path:?}");
+            for (a, b) in ours.materials.iter().zip(&theirs) {
+                let fields = |m: &tobj::Material| {
+                    format!(
+                        "{:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?} {:?}",
+                        m.name,
+                        m.diffuse,
+                        m.specular,
+                        m.emissive,
+                        m.shininess,
+                        m.optical_density,
+                        m.dissolve,
+                        m.illumination_model,
+                        m.diffuse_texture,
+                        m.normal_texture,
+                        m.dissolve_texture
+                    )
+                };
+                assert_eq!(fields(a), fields(b), "{path:?}");
+            }
+            read += 1;
+        }
+        assert!(read >= 5, "{read} libraries");
+    }
+
     #[test]
     fn colour_forms() {
         let m =
