@@ -378,6 +378,15 @@ fn vertex_colours_give_the_colour_they_say() {
             "{said}"
         );
     }
+    // Placed from a scene file beside an OBJ without colours and a second copy (both
+    // far out of view), the colours go with their mesh.
+    let placed = "[[obj]]\nfile = \"bytes.obj\"\nname = \"q\"\n\n\
+                  [[obj]]\nfile = \"twin.obj\"\ntranslate = [-100, 0, 0]\n\n\
+                  [[instance]]\nobj = \"q\"\ntranslate = [100, 0, 0]\n";
+    std::fs::write(dir.path().join("placed.toml"), placed).unwrap();
+    let run = render(dir.path(), "placed.toml", &[]);
+    assert!(run.stderr.contains("placed 3 times"), "{}", run.stderr);
+    assert_uniform(run.clean(), colour, 1e-5);
 }
 
 /// A colour that varies across the quad is interpolated: each pixel column of a quad

@@ -10,7 +10,7 @@
 
 use std::borrow::Cow;
 use std::cell::RefCell;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::path::{Path, PathBuf};
 
 use glam::{Vec2, Vec3};
@@ -123,6 +123,7 @@ fn read_in_parallel(_: &Path) -> Option<Vec<u8>> {
 /// of its first use, read as both OBJ readers read them.
 fn used_materials(text: &str) -> Vec<(usize, String)> {
     let mut used: Vec<(usize, String)> = Vec::new();
+    let mut seen: HashSet<&str> = HashSet::new();
     let (mut line, mut counted) = (1, 0);
     for at in memchr::memmem::find_iter(text.as_bytes(), "usemtl") {
         let start = text[..at].rfind('\n').map_or(0, |i| i + 1);
@@ -133,7 +134,7 @@ fn used_materials(text: &str) -> Vec<(usize, String)> {
         };
         line += memchr::memchr_iter(b'\n', &text.as_bytes()[counted..start]).count();
         counted = start;
-        if !used.iter().any(|(_, n)| n == name) {
+        if seen.insert(name) {
             used.push((line, name.to_owned()));
         }
     }
@@ -442,8 +443,9 @@ fn warn_undefined(
         "its faces use ember's default material (diffuse {} {} {})",
         d.x, d.y, d.z
     );
+    let defined: HashSet<&str> = defined.iter().map(|m| m.name.as_str()).collect();
     for (line, name) in used {
-        if !defined.iter().any(|m| &m.name == name) {
+        if !defined.contains(name.as_str()) {
             let error = SceneError::UndefinedMaterial {
                 path: path.to_owned(),
                 line: *line,

@@ -52,15 +52,18 @@ pub(super) fn pad_vertex_colours(text: &str) -> Result<Cow<'_, str>, String> {
         if words.next() != Some("v") {
             continue;
         }
-        let values: Vec<&str> = words.collect();
-        match values.len() {
+        // Seven at most: enough to tell every case apart without collecting the line.
+        let values: [Option<&str>; 7] = std::array::from_fn(|_| words.next());
+        let colour = values[3..6].iter().flatten();
+        match values.iter().flatten().count() {
             3 | 4 => counts[0] += 1,
-            6 if values[3..].iter().all(|w| w.parse::<f32>().is_ok()) => counts[1] += 1,
+            6 if colour.clone().all(|w| w.parse::<f32>().is_ok()) => counts[1] += 1,
             6 => return Err(format!("line {}: the vertex colour is not three numbers", n + 1)),
             k => {
                 return Err(format!(
-                    "line {}: a vertex has 3 coordinates (and w) or 3 and a colour r g b, not {k} numbers",
-                    n + 1
+                    "line {}: a vertex has 3 coordinates (and w) or 3 and a colour r g b, not {k}{} numbers",
+                    n + 1,
+                    if k == values.len() { " or more" } else { "" }
                 ))
             }
         }

@@ -30,6 +30,10 @@ pub(super) struct Referrer<'a> {
     pub instead: &'a str,
 }
 
+/// A decoded texture statement: the texture's index and that of its alpha channel as
+/// an alpha map (a `map_Kd`'s, when not opaque), and the statement's `-bm` multiplier.
+type Loaded = ((u32, Option<u32>), f32);
+
 /// The textures and alpha maps of a scene as its materials name them.
 #[derive(Default)]
 pub(super) struct TextureLoader {
@@ -78,7 +82,7 @@ impl TextureLoader {
         referrer: &Referrer<'_>,
         kind: TextureKind,
         warnings: &mut Warnings,
-    ) -> Result<Option<((u32, Option<u32>), f32)>, SceneError> {
+    ) -> Result<Option<Loaded>, SceneError> {
         let Some((file, options)) = find(statement, slot, referrer, warnings)? else {
             return Ok(None);
         };
