@@ -607,12 +607,7 @@ fn build_materials(
         let folders = sources.folders(index);
         let (texture, kd_alpha) = match &m.diffuse_texture {
             Some(name) => {
-                let instead = instead_of_map(m, "map_Kd");
-                let referrer = Referrer {
-                    material: &m.name,
-                    folders: &folders,
-                    instead: &instead,
-                };
+                let referrer = referrer(m, &folders, "map_Kd");
                 let loaded = loader.diffuse(name, &referrer, warnings)?;
                 (loaded.map(|(t, _)| t), loaded.and_then(|(_, a)| a))
             }
@@ -643,15 +638,7 @@ fn build_materials(
         };
         // An explicit `map_d` wins over the alpha channel of `map_Kd`.
         material.opacity_map = match &m.dissolve_texture {
-            Some(name) => {
-                let instead = instead_of_map(m, "map_d");
-                let referrer = Referrer {
-                    material: &m.name,
-                    folders: &folders,
-                    instead: &instead,
-                };
-                loader.opacity(name, &referrer, warnings)?
-            }
+            Some(name) => loader.opacity(name, &referrer(m, &folders, "map_d"), warnings)?,
             None => kd_alpha,
         };
         materials.push(material);
@@ -661,6 +648,16 @@ fn build_materials(
         warnings.push(format!("{}: {warning}", sources.obj.display()));
     }
     Ok(materials)
+}
+
+/// Material `m`'s map `slot` as the texture loader sees it: looked up in `folders`,
+/// replaced as [`instead_of_map`] says where its file is absent.
+fn referrer<'a>(m: &'a tobj::Material, folders: &'a [&'a Path], slot: &str) -> Referrer<'a> {
+    Referrer {
+        material: &m.name,
+        folders,
+        instead: instead_of_map(m, slot),
+    }
 }
 
 /// What a material uses where the file of its map `slot` is absent: the constant of
@@ -718,12 +715,7 @@ fn material_maps(
         let Some(statement) = statement else {
             continue;
         };
-        let instead = instead_of_map(m, slot);
-        let referrer = Referrer {
-            material: &m.name,
-            folders,
-            instead: &instead,
-        };
+        let referrer = referrer(m, folders, slot);
         let loaded = loader.texture(statement, slot, &referrer, kind, warnings)?;
         if let Some((id, scale)) = loaded {
             ids[k] = Some(id);

@@ -27,7 +27,7 @@ pub(super) struct Referrer<'a> {
     /// memory, where every texture is absent.
     pub folders: &'a [&'a Path],
     /// For a warning: what the material uses where the map is absent.
-    pub instead: &'a str,
+    pub instead: String,
 }
 
 /// A decoded texture statement: the texture's index and that of its alpha channel as
@@ -153,7 +153,7 @@ fn find(
         .first()
         .map_or(PathBuf::from(&options.file), |dir| dir.join(&options.file));
     let missing = |reason| error(&written, slot, material, reason);
-    let file = warnings.located(found, missing, referrer.instead)?;
+    let file = warnings.located(found, missing, &referrer.instead)?;
     Ok(file.map(|file| (file, options)))
 }
 
