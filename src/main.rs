@@ -19,18 +19,39 @@ use cli::{
     merge::MergeArgs,
     misc::{CompareArgs, InfoArgs},
     render::RenderArgs,
+    verbosity::Verbosity,
 };
 
 #[derive(Parser)]
 #[command(
     name = "ember",
     version,
-    about = "A physically based path tracer for OBJ scenes, on Intel Embree"
+    about = "A physically based path tracer for OBJ scenes, on Intel Embree",
+    arg_required_else_help = true,
+    after_help = "`ember COMMAND -h` for a summary of a command's flags, `--help` for all of it.",
+    after_long_help = EXAMPLES,
 )]
 struct Cli {
+    /// Say less: warnings and errors only (no progress bar, no summary).
+    #[arg(short, long, global = true, conflicts_with = "verbose")]
+    quiet: bool,
+    /// Say more: the settings ember chose (camera, light sampler, threads) and the
+    /// time of each stage.
+    #[arg(short, long, global = true)]
+    verbose: bool,
     #[command(subcommand)]
     command: Command,
 }
+
+const EXAMPLES: &str = "\
+Examples:
+  ember render meshes/CornellBox-Original.obj -o cornell.png
+  ember render scenes/cornell-box.toml --spp 256 --denoise -o box.png
+  ember info meshes/CornellBox-Original.obj
+  ember render scene.obj --spp 1024 --shard 0/4 -o part-0.ember   (then `ember merge part-*.ember -o out.exr`)
+  ember bench meshes/CornellBox-Original.obj --plot bench.svg
+
+The guide: docs/guide.md; every flag: docs/reference/cli.md.";
 
 #[derive(Subcommand)]
 enum Command {
@@ -55,28 +76,24 @@ enum Command {
 fn main() -> ExitCode {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(e) if !e.use_stderr() => {
-            // --help and --version go to stdout in full.
-            let _ = e.print();
-            return ExitCode::SUCCESS;
-        }
-        Err(e) => {
-            // One line: clap's first line says what is wrong with which flag, or ends
-            // in a colon before the list of what is missing, which is joined to it.
-            let text = e.render().to_string();
-            let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
-            let first = lines.next().unwrap_or("error: invalid arguments");
-            match lines.next() {
-                Some(what) if first.ends_with(':') => eprintln!("{first} {what}"),
-                _ => eprintln!("{first}"),
-            }
-            return ExitCode::from(2);
-        }
+        // Help and version go to stdout; a mistake in the flags to stderr with clap's
+        // usage line and its suggestions ("a similar argument exists"), exit status 2.
+        Err(e) => return clap_exit(&e),
     };
+    cli::verbosity::set(match (cli.quiet, cli.verbose) {
+        (true, _) => Verbosity::Quiet,
+        (_, true) => Verbosity::Verbose,
+        _ => Verbosity::Normal,
+    });
     let result = match cli.command {
         Command::Render(args) => {
-            // A scene file's flags are read before the command line's (after `render`).
-            let user: Vec<std::ffi::OsString> = std::env::args_os().skip(2).collect();
+            // A scene file's flags are read before the command line's (after `render`,
+            // which only -q and -v may come before).
+            let user: Vec<std::ffi::OsString> = std::env::args_os()
+                .skip(1)
+                .skip_while(|a| a != "render")
+                .skip(1)
+                .collect();
             cli::render::run(*args, &user)
         }
         Command::Merge(args) => cli::merge::run(args),
@@ -87,9 +104,20 @@ fn main() -> ExitCode {
     };
     match result {
         Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::FAILURE
-        }
+        // A scene file's flags are parsed by clap too: its errors keep clap's form.
+        Err(e) => match e.downcast_ref::<clap::Error>() {
+            Some(e) => clap_exit(e),
+            None => {
+                eprintln!("error: {e:#}");
+                ExitCode::FAILURE
+            }
+        },
     }
+}
+
+/// Prints clap's own message for `e` (help, version, or a usage error) and gives its
+/// exit status.
+fn clap_exit(e: &clap::Error) -> ExitCode {
+    let _ = e.print();
+    ExitCode::from(u8::try_from(e.exit_code()).unwrap_or(2))
 }

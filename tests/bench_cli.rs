@@ -28,6 +28,8 @@ fn json_document_has_every_measurement() {
         .arg("--json")
         .arg("--json-out")
         .arg(&out_file)
+        .arg("--plot")
+        .arg(dir.path().join("bench.svg"))
         .output()
         .unwrap();
     assert!(
@@ -38,6 +40,28 @@ fn json_document_has_every_measurement() {
     let doc: Value = serde_json::from_slice(&out.stdout).expect("stdout is one JSON document");
     let written: Value = serde_json::from_slice(&std::fs::read(&out_file).unwrap()).unwrap();
     assert_eq!(doc, written);
+
+    // The machine the figures come from, as the table's header names it.
+    let machine = &doc["machine"];
+    assert!(!machine["cpu"].as_str().unwrap().is_empty(), "{machine}");
+    assert!(!machine["isa"].as_str().unwrap().is_empty(), "{machine}");
+    assert!(machine["hardware_threads"].as_u64().unwrap() >= 1);
+    let embree = doc["embree_version"].as_str().unwrap();
+    assert!(embree.starts_with('3') || embree.starts_with('4'), "{embree}");
+    assert_eq!(machine["embree_version"], embree);
+    assert!(doc["baselines"]["traversal"].as_str().unwrap().contains("Embree single"));
+    // The table (on stderr with --json) names the same machine, and has its legend.
+    let table = String::from_utf8_lossy(&out.stderr);
+    assert!(table.contains(machine["cpu"].as_str().unwrap()), "{table}");
+    assert!(table.contains(&format!("Embree {embree}")), "{table}");
+    assert!(table.contains("Legend:") && table.contains("embree single (base)"), "{table}");
+
+    // The chart: one panel per mesh, a bar per backend and API, in one SVG document.
+    let svg = std::fs::read_to_string(dir.path().join("bench.svg")).unwrap();
+    assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
+    for text in ["CornellBox-Original.obj", "sphere:2000", "embree packet8", "bvh single"] {
+        assert!(svg.contains(text), "the chart has no {text:?}");
+    }
 
     // The OBJ's reading is timed (the procedural mesh is not read from a file).
     let loading = doc["loading"].as_array().expect("loading array");
@@ -114,6 +138,41 @@ fn json_document_has_every_measurement() {
     };
     assert_eq!(hits("embree"), hits("bvh"));
     assert!(hits("bvh") > 1000);
+
+    // Each ratio is the row's rate over Embree single's on the same rays and threads.
+    for r in results.iter().filter(|r| r["mode"] == "primary") {
+        let base = results
+            .iter()
+            .find(|b| {
+                b["mesh"] == r["mesh"]
+                    && b["backend"] == "embree"
+                    && b["api"] == "single"
+                    && b["mode"] == "primary"
+                    && b["threads"] == r["threads"]
+            })
+            .unwrap();
+        let want = r["mrays_per_s"].as_f64().unwrap() / base["mrays_per_s"].as_f64().unwrap();
+        let got = r["vs_embree"].as_f64().unwrap();
+        assert!((got - want).abs() < 1e-9 * want, "{r}");
+    }
+}
+
+#[test]
+fn unwritable_plot_is_refused_before_measuring() {
+    for (path, what) in [
+        ("/nonexistent-dir/chart.svg", "nonexistent-dir"),
+        ("/tmp/chart.png", "svg"),
+    ] {
+        let out = ember()
+            .args(["bench", "--procedural", "sphere:100000", "--plot", path])
+            .output()
+            .unwrap();
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.starts_with("error:") && err.contains(what), "{err}");
+        assert!(out.stdout.is_empty());
+    }
 }
 
 #[test]
@@ -131,11 +190,15 @@ fn missing_mesh_is_one_error_line() {
 
 #[test]
 fn bad_procedural_spec_and_nothing_to_do_are_errors() {
-    for args in [&["bench", "--procedural", "cube:10"][..], &["bench"][..]] {
-        let out = ember().args(args).output().unwrap();
-        assert!(!out.status.success());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-        assert!(err.starts_with("error"), "{err}");
-    }
+    // A bad flag value is clap's error, with its usage line; nothing to do is ember's.
+    let out = ember().args(["bench", "--procedural", "cube:10"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.starts_with("error: invalid value 'cube:10'"), "{err}");
+    assert!(err.contains("--help"), "{err}");
+    let out = ember().args(["bench"]).output().unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: nothing to benchmark"), "{err}");
 }

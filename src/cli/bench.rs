@@ -16,12 +16,14 @@
 //! - [`timing`]: best-of-N timing and throughput on a thread pool;
 //! - [`measure`]: the builds and traversals of one mesh;
 //! - [`report`]: the measurements, as a table and as JSON;
+//! - [`plot`]: the measurements as a chart (`--plot FILE.svg`);
 //! - `peers` (feature `peers`): the published BVH crates behind `ember::accel::Accel`.
 
 mod measure;
 mod mesh;
 #[cfg(feature = "peers")]
 mod peers;
+mod plot;
 mod procedural;
 mod rays;
 mod report;
@@ -34,7 +36,8 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use glam::Vec3;
 
-use super::parse_vec3;
+use super::machine::Machine;
+use super::{parse_vec3, verbosity};
 use ember::embree::Device;
 use ember::io;
 use ember::scene::CameraSettings;
@@ -75,8 +78,11 @@ pub struct BenchArgs {
     #[arg(long)]
     json: bool,
     /// Also write the JSON document to this file (atomically).
-    #[arg(long)]
+    #[arg(long, value_name = "FILE")]
     json_out: Option<PathBuf>,
+    /// Draw Mrays/s per backend and ray kind to FILE.svg, a bar chart per mesh.
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
 }
 
 /// Seconds each measurement repeats for: 0 (one run) to an hour.
@@ -97,6 +103,13 @@ pub fn run(args: BenchArgs) -> Result<()> {
     if let Some(path) = &args.json_out {
         io::check_writable(path)?;
     }
+    if let Some(path) = &args.plot {
+        if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg")) {
+            bail!("--plot {}: the chart is SVG, give a .svg file", path.display());
+        }
+        io::check_writable(path)?;
+    }
+    let machine = Machine::of(&Device::new("")?.info());
     let all = std::thread::available_parallelism().map_or(1, |n| n.get());
     let mut threads: Vec<usize> = if args.threads.is_empty() {
         vec![1, all]
@@ -150,32 +163,45 @@ pub fn run(args: BenchArgs) -> Result<()> {
             }
         };
         let loading = loadings.iter().find(|l| l.mesh == mesh.name);
-        eprintln!(
-            "benchmarking {}: {} triangles{}",
-            mesh.name,
-            mesh.triangles().len(),
-            loading.map_or(String::new(), |l| format!("; {}", l.summary()))
-        );
+        if verbosity::status() {
+            eprintln!(
+                "benchmarking {}: {} triangles{}",
+                mesh.name,
+                mesh.triangles().len(),
+                loading.map_or(String::new(), |l| format!("; {}", l.summary()))
+            );
+        }
         let measured = measure::run(&mesh, &options)
             .with_context(|| format!("benchmark of {} failed", mesh.name))?;
         results.extend(measured);
     }
 
-    let table = report::table(&results, &loadings);
-    let version = Device::new("")?.info().version;
+    let table = format!(
+        "ember bench on {}\n{}\n{}",
+        machine.summary(),
+        report::table(&results, &loadings),
+        report::LEGEND
+    );
     let document = report::to_json(
         &results,
         &loadings,
         options.rays,
         &options.threads,
-        &version,
+        &machine,
     );
     let json = serde_json::to_string_pretty(&document)?;
     if let Some(path) = &args.json_out {
         io::write_atomically(path, json.as_bytes())?;
     }
+    if let Some(path) = &args.plot {
+        let svg = plot::svg(&results, &machine.summary())
+            .map_err(|e| anyhow::anyhow!("cannot draw the chart {}: {e}", path.display()))?;
+        io::write_atomically(path, svg.as_bytes())?;
+    }
     if args.json {
-        eprint!("{table}");
+        if verbosity::status() {
+            eprint!("{table}");
+        }
         println!("{json}");
     } else {
         print!("{table}");

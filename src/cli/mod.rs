@@ -4,10 +4,12 @@
 
 pub mod bench;
 pub mod denoise;
+pub mod machine;
 pub mod merge;
 pub mod misc;
 pub mod render;
 pub mod scene_file;
+pub mod verbosity;
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Arc;

@@ -17,7 +17,15 @@ const CAMERA_KEYS: [&str; 6] = ["eye", "look-at", "up", "fov", "aperture", "focu
 /// Keys of `[environment]`; `env` is a path, relative to the scene file.
 const ENVIRONMENT_KEYS: [&str; 4] = ["background", "env", "env-scale", "env-rotate"];
 /// Flags about one run rather than the scene: the command line's only.
-const RUN_ONLY: [&str; 5] = ["output", "checkpoint", "resume", "shard", "help"];
+const RUN_ONLY: [&str; 7] = [
+    "output",
+    "checkpoint",
+    "resume",
+    "shard",
+    "help",
+    "quiet",
+    "verbose",
+];
 
 /// Whether `ember render` was given a scene file rather than an OBJ.
 pub fn is_scene_file(path: &std::path::Path) -> bool {
@@ -25,8 +33,18 @@ pub fn is_scene_file(path: &std::path::Path) -> bool {
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
 }
 
+/// `ember render`'s flags, and the global `-q` and `-v` (already read by `main`).
 fn render_command() -> Command {
-    RenderArgs::augment_args(Command::new("render")).args_override_self(true)
+    let global = |id: &'static str, short: char| {
+        clap::Arg::new(id)
+            .short(short)
+            .long(id)
+            .action(clap::ArgAction::SetTrue)
+    };
+    RenderArgs::augment_args(Command::new("render"))
+        .arg(global("quiet", 'q'))
+        .arg(global("verbose", 'v'))
+        .args_override_self(true)
 }
 
 /// The render's arguments: the scene file's flags, then `user` (the command line's

@@ -381,7 +381,8 @@ mod tests {
         assert!(hits("embree", Mode::Primary, Api::Single) > 0);
         let table = table(&results, &[]);
         assert!(table.contains("sphere:") && table.contains("diffuse"));
-        let json = to_json(&results, &[], options.rays, &options.threads, "test");
+        let machine = crate::cli::machine::Machine::of(&Device::new("").unwrap().info());
+        let json = to_json(&results, &[], options.rays, &options.threads, &machine);
         assert_eq!(json["results"].as_array().unwrap().len(), results.len());
     }
 }

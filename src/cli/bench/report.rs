@@ -5,6 +5,8 @@ use std::fmt::Write;
 
 use serde_json::{json, Value};
 
+use crate::cli::machine::Machine;
+
 /// What a measurement measured.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Mode {
@@ -136,66 +138,106 @@ impl Loading {
     }
 }
 
-/// The JSON document `ember bench --json` prints: the measurements and the setup.
+/// The JSON document `ember bench --json` prints: the machine, the setup and the
+/// measurements, each traversal and build with its ratio to the baseline the table
+/// names (`vs_embree`) and to the fewest threads measured (`vs_fewest_threads`).
 pub fn to_json(
     results: &[Measurement],
     loadings: &[Loading],
     rays_per_set: usize,
     threads: &[usize],
-    embree_version: &str,
+    machine: &Machine,
 ) -> Value {
+    let rows: Vec<Value> = results
+        .iter()
+        .map(|m| {
+            let mesh_rows: Vec<&Measurement> =
+                results.iter().filter(|r| r.mesh == m.mesh).collect();
+            let ratios = MeshRows(&mesh_rows);
+            let mut v = m.to_json();
+            let obj = v.as_object_mut().expect("json! object");
+            if let Some(r) = ratios.vs_embree(m) {
+                obj.insert("vs_embree".into(), r.into());
+            }
+            if let Some(r) = ratios.vs_fewest_threads(m) {
+                obj.insert("vs_fewest_threads".into(), r.into());
+            }
+            v
+        })
+        .collect();
     json!({
         "ember_version": env!("CARGO_PKG_VERSION"),
-        "embree_version": embree_version,
+        "embree_version": machine.embree_version,
+        "machine": machine,
+        "baselines": {
+            "traversal": TRAVERSAL_BASELINE,
+            "build": BUILD_BASELINE,
+        },
         "rays_per_set": rays_per_set,
         "threads": threads,
         "loading": loadings.iter().map(Loading::to_json).collect::<Vec<_>>(),
-        "results": results.iter().map(Measurement::to_json).collect::<Vec<_>>(),
+        "results": rows,
     })
 }
 
-/// The human-readable table: per mesh, builds then traversal, with the ratio to Embree
-/// (medium quality for builds, single rays for traversal), the speed-up over the
-/// fewest threads, and how many cores the process kept busy while tracing (`cpu`: a
-/// speed-up cannot exceed it, so a low value means other programs held the cores).
+/// What a traversal's ratio is over.
+const TRAVERSAL_BASELINE: &str =
+    "Embree single rays (api single), same mesh, ray kind and threads: Mrays/s over its Mrays/s";
+/// What a build's ratio is over.
+const BUILD_BASELINE: &str =
+    "Embree's medium-quality build, same mesh and threads: its time over this build's time";
+
+/// What the table's words mean, printed after it.
+pub const LEGEND: &str = "\
+Legend:
+  rays       primary: coherent camera rays in 16x16 tiles; diffuse: cosine-weighted bounces
+             from the points the camera sees (incoherent); shadow: occlusion rays from those
+             points to the mesh's emitters, or to points in its bounds
+  single     one ray a call through ember's Accel interface, as `ember render` traces
+  direct     the same rays through bare rtcIntersect1/rtcOccluded1 calls, as a C program
+             would: the gap to `embree single` is what ember's wrapper costs
+  packet8    Embree's 8-ray packets (rtcIntersect8/rtcOccluded8)
+  N.NNx      traversal: Mrays/s over `embree single` on the same rays and threads; builds:
+             Embree's medium-quality build time over this build's; above 1 is faster
+  cpu        cores the process kept busy while tracing (the lowest of the row): a speed-up
+             cannot exceed it, so a low value means other programs held the cores
+  MB         the structure's memory
+  call overhead  rays with an empty interval, which Embree returns before traversing:
+             the cost of one call through the wrapper
+";
+
+/// The human-readable tables, per mesh: builds (one row per structure, a column per
+/// thread count), then traversal side by side (one row per ray kind and thread count,
+/// a column per backend and API), then the cost of a call.
 pub fn table(results: &[Measurement], loadings: &[Loading]) -> String {
     let mut s = String::new();
     let mut meshes: Vec<&str> = results.iter().map(|m| m.mesh.as_str()).collect();
     meshes.dedup();
     for mesh in meshes {
         let rows: Vec<&Measurement> = results.iter().filter(|m| m.mesh == mesh).collect();
+        let loading = loadings
+            .iter()
+            .find(|l| l.mesh == mesh)
+            .map_or(String::new(), |l| format!("; {}", l.summary()));
         let _ = writeln!(
             s,
-            "\n{mesh}: {} triangles, {} rays per set",
+            "\n{mesh}: {} triangles, {} rays per set{loading}",
             rows[0].triangles,
             rows.iter().map(|m| m.rays).max().unwrap_or(0)
         );
-        if let Some(loading) = loadings.iter().find(|l| l.mesh == mesh) {
-            let _ = writeln!(s, "{}", loading.summary());
-        }
-        let _ = writeln!(
-            s,
-            "{:<9} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>9} {:>5} {:>7}",
-            "backend",
-            "mode",
-            "api",
-            "thr",
-            "build ms",
-            "Mrays/s",
-            "vs embree",
-            "vs 1 thr",
-            "cpu",
-            "MB"
-        );
         let mesh_rows = MeshRows(&rows);
-        for m in &rows {
-            let _ = writeln!(s, "{}", mesh_rows.line(m));
-        }
+        s.push_str(&mesh_rows.builds());
+        s.push('\n');
+        s.push_str(&mesh_rows.traversal());
+        s.push_str(&mesh_rows.call_overhead());
     }
     s
 }
 
-/// The measurements of one mesh, which each row's ratios look up.
+/// A traversal column: a backend through one API.
+type Column = (&'static str, Api);
+
+/// The measurements of one mesh, which the tables and ratios look up.
 struct MeshRows<'a>(&'a [&'a Measurement]);
 
 impl MeshRows<'_> {
@@ -219,69 +261,168 @@ impl MeshRows<'_> {
             .copied()
     }
 
-    fn min_threads(&self) -> usize {
-        self.0.iter().map(|m| m.threads).min().unwrap_or(1)
+    fn thread_counts(&self) -> Vec<usize> {
+        let mut threads: Vec<usize> = self.0.iter().map(|m| m.threads).collect();
+        threads.sort_unstable();
+        threads.dedup();
+        threads
     }
 
-    /// Build milliseconds, rays per second, and the ratios to Embree and to the fewest
-    /// threads, as the table's cells.
-    fn cells(&self, m: &Measurement) -> [String; 4] {
-        let ratio = |x: Option<f64>| x.map(|x| format!("{x:.2}x")).unwrap_or_default();
-        let min_threads = self.min_threads();
-        let scaling = |other: Option<f64>| other.filter(|_| m.threads != min_threads);
+    /// The ratio of `m` to its baseline: Embree's medium-quality build (builds), Embree
+    /// single rays (traversal); `None` for the call overhead.
+    fn vs_embree(&self, m: &Measurement) -> Option<f64> {
         match (m.build_ms, m.mrays_per_s) {
             (Some(ms), _) => {
-                let embree = self.find(
-                    "embree",
-                    Mode::Build,
-                    Api::Single,
-                    m.threads,
-                    Some("medium"),
-                );
-                let one = self.find(m.backend, Mode::Build, m.api, min_threads, m.quality);
-                [
-                    format!("{ms:.2}"),
-                    String::new(),
-                    ratio(embree.and_then(|e| e.build_ms).map(|e| e / ms)),
-                    ratio(scaling(one.and_then(|o| o.build_ms)).map(|o| o / ms)),
-                ]
+                let base = self.find("embree", Mode::Build, Api::Single, m.threads, Some("medium"));
+                base.and_then(|b| b.build_ms).map(|b| b / ms)
             }
-            (None, Some(r)) => {
-                let embree = self
-                    .find("embree", m.mode, Api::Single, m.threads, None)
-                    .filter(|_| m.mode != Mode::CallOverhead);
-                let one = self.find(m.backend, m.mode, m.api, min_threads, None);
-                [
-                    String::new(),
-                    format!("{r:.2}"),
-                    ratio(embree.and_then(|e| e.mrays_per_s).map(|e| r / e)),
-                    ratio(scaling(one.and_then(|o| o.mrays_per_s)).map(|o| r / o)),
-                ]
+            (None, Some(rate)) if m.mode != Mode::CallOverhead => {
+                let base = self.find("embree", m.mode, Api::Single, m.threads, None);
+                base.and_then(|b| b.mrays_per_s).map(|b| rate / b)
             }
-            (None, None) => Default::default(),
+            _ => None,
         }
     }
 
-    fn line(&self, m: &Measurement) -> String {
-        let name = match m.quality {
-            Some(q) => format!("{}-{q}", m.mode.as_str()),
-            None => m.mode.as_str().to_owned(),
-        };
-        let [build, rate, base, scale] = self.cells(m);
-        format!(
-            "{:<9} {:<13} {:<8} {:>3} {:>11} {:>10} {:>9} {:>9} {:>5} {:>7.1}",
-            m.backend,
-            name,
-            m.api.as_str(),
-            m.threads,
-            build,
-            rate,
-            base,
-            scale,
-            m.cpu_per_wall
-                .map(|c| format!("{c:.2}"))
-                .unwrap_or_default(),
-            m.memory_bytes as f64 / 1e6
-        )
+    /// The speed-up of `m` over the same measurement on the fewest threads.
+    fn vs_fewest_threads(&self, m: &Measurement) -> Option<f64> {
+        let fewest = *self.thread_counts().first()?;
+        if m.threads == fewest {
+            return None;
+        }
+        let one = self.find(m.backend, m.mode, m.api, fewest, m.quality)?;
+        match (m.build_ms, m.mrays_per_s) {
+            (Some(ms), _) => one.build_ms.map(|o| o / ms),
+            (None, Some(rate)) => one.mrays_per_s.map(|o| rate / o),
+            _ => None,
+        }
     }
+
+    /// A cell: the figure, and its ratio to the baseline unless it is the baseline.
+    fn cell(&self, m: &Measurement, figure: f64, baseline: bool) -> String {
+        match self.vs_embree(m) {
+            Some(r) if !baseline => format!("{figure:.2} {r:.2}x"),
+            _ => format!("{figure:.2}"),
+        }
+    }
+
+    fn builds(&self) -> String {
+        let threads = self.thread_counts();
+        let mut structures: Vec<(&'static str, Option<&'static str>)> = Vec::new();
+        for m in self.0.iter().filter(|m| m.mode == Mode::Build) {
+            if !structures.contains(&(m.backend, m.quality)) {
+                structures.push((m.backend, m.quality));
+            }
+        }
+        let mut header = vec!["build".to_owned()];
+        header.extend(threads.iter().map(|t| format!("ms, {t} thr")));
+        header.push("MB".to_owned());
+        let mut grid = vec![header];
+        for (backend, quality) in structures {
+            let name = match quality {
+                Some(q) if q == "medium" => format!("{backend} {q} (base)"),
+                Some(q) => format!("{backend} {q}"),
+                None => backend.to_owned(),
+            };
+            let mut row = vec![name];
+            let mut memory = 0;
+            for &t in &threads {
+                let m = self.find(backend, Mode::Build, Api::Single, t, quality);
+                row.push(m.map_or(String::new(), |m| {
+                    memory = m.memory_bytes;
+                    self.cell(m, m.build_ms.unwrap_or(0.0), quality == Some("medium"))
+                }));
+            }
+            row.push(format!("{:.1}", memory as f64 / 1e6));
+            grid.push(row);
+        }
+        layout(&grid, 1)
+    }
+
+    fn traversal(&self) -> String {
+        let mut columns: Vec<Column> = Vec::new();
+        for m in self.0.iter().filter(|m| is_traversal(m.mode)) {
+            if !columns.contains(&(m.backend, m.api)) {
+                columns.push((m.backend, m.api));
+            }
+        }
+        let mut header = vec!["Mrays/s".to_owned(), "thr".to_owned()];
+        header.extend(columns.iter().map(|&(backend, api)| match (backend, api) {
+            ("embree", Api::Single) => "embree single (base)".to_owned(),
+            _ => format!("{backend} {}", api.as_str()),
+        }));
+        header.push("cpu".to_owned());
+        let mut grid = vec![header];
+        for mode in [Mode::Primary, Mode::Diffuse, Mode::Shadow] {
+            for &t in &self.thread_counts() {
+                let found: Vec<Option<&Measurement>> = columns
+                    .iter()
+                    .map(|&(backend, api)| self.find(backend, mode, api, t, None))
+                    .collect();
+                if found.iter().all(Option::is_none) {
+                    continue;
+                }
+                let mut row = vec![mode.as_str().to_owned(), t.to_string()];
+                for (m, &(backend, api)) in found.iter().zip(&columns) {
+                    let baseline = backend == "embree" && api == Api::Single;
+                    row.push(m.map_or(String::new(), |m| {
+                        self.cell(m, m.mrays_per_s.unwrap_or(0.0), baseline)
+                    }));
+                }
+                let cpu = found
+                    .iter()
+                    .flatten()
+                    .filter_map(|m| m.cpu_per_wall)
+                    .fold(None, |a: Option<f64>, c| Some(a.map_or(c, |a| a.min(c))));
+                row.push(cpu.map_or(String::new(), |c| format!("{c:.2}")));
+                grid.push(row);
+            }
+        }
+        layout(&grid, 1)
+    }
+
+    fn call_overhead(&self) -> String {
+        let rates: Vec<String> = (self.0.iter())
+            .filter(|m| m.mode == Mode::CallOverhead)
+            .filter_map(|m| Some(format!("{:.2} Mrays/s at {} thr", m.mrays_per_s?, m.threads)))
+            .collect();
+        match rates.is_empty() {
+            true => String::new(),
+            false => format!(
+                "call overhead (embree single, empty rays): {}\n",
+                rates.join(", ")
+            ),
+        }
+    }
+}
+
+fn is_traversal(mode: Mode) -> bool {
+    matches!(mode, Mode::Primary | Mode::Diffuse | Mode::Shadow)
+}
+
+/// `grid` as aligned text: the first `left` columns flush left, the others right.
+fn layout(grid: &[Vec<String>], left: usize) -> String {
+    let columns = grid.iter().map(Vec::len).max().unwrap_or(0);
+    let widths: Vec<usize> = (0..columns)
+        .map(|c| {
+            grid.iter()
+                .filter_map(|row| row.get(c))
+                .map(|cell| cell.chars().count())
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    let mut s = String::new();
+    for row in grid {
+        let cells: Vec<String> = row
+            .iter()
+            .enumerate()
+            .map(|(c, cell)| match c < left {
+                true => format!("{cell:<w$}", w = widths[c]),
+                false => format!("{cell:>w$}", w = widths[c]),
+            })
+            .collect();
+        let _ = writeln!(s, "{}", cells.join("  ").trim_end());
+    }
+    s
 }
