@@ -9,6 +9,7 @@ pub mod merge;
 pub mod misc;
 pub mod render;
 pub mod scene_file;
+pub mod tev;
 pub mod verbosity;
 
 use std::sync::atomic::{AtomicUsize, Ordering};

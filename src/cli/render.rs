@@ -15,6 +15,7 @@ use glam::Vec3;
 use indicatif::{ProgressBar, ProgressStyle};
 
 use super::scene_file::{is_scene_file, render_args};
+use super::tev::{Display, DisplayAddress};
 use super::{
     parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg, LightSamplerArg,
     ToneArgs,
@@ -195,6 +196,11 @@ pub struct RenderArgs {
     /// name or by ignoring case (see docs/input-rules.md).
     #[arg(long)]
     strict: bool,
+    /// Show the image in progress in the tev viewer listening at HOST:PORT (tev's
+    /// default is localhost:14158), about once a second and when done. The image
+    /// written is the same; a viewer that cannot be reached costs one warning.
+    #[arg(long, value_name = "HOST:PORT", value_parser = super::tev::parse_address)]
+    display: Option<DisplayAddress>,
     #[command(flatten)]
     tone: ToneArgs,
 }
@@ -299,6 +305,8 @@ struct RenderPlan {
     guiding_iterations_given: bool,
     /// How the scene is loaded (`--strict`).
     load: LoadOptions,
+    /// The tev viewer to stream the image in progress to (`--display`).
+    display: Option<DisplayAddress>,
 }
 
 impl RenderPlan {
@@ -376,6 +384,7 @@ impl RenderPlan {
             load: LoadOptions {
                 strict: args.strict,
             },
+            display: args.display,
         }
     }
 
@@ -747,20 +756,34 @@ fn finish_render<A: Accel>(
     let save_checkpoint = |film: &Film| -> Result<()> {
         checkpoint::save(&plan.checkpoint, &header, film).context("cannot write the checkpoint")
     };
+    let display = plan.display.clone().map(|address| {
+        let name = plan.output.file_name().unwrap_or_default();
+        let s = &plan.settings;
+        Display::start(address, name.to_string_lossy().into_owned(), s.width, s.height)
+    });
+    let snapshots = Snapshots::new(plan.checkpoint_every, display.is_some());
     let periodic = |film: &Film| {
-        if let Err(e) = save_checkpoint(film) {
-            eprintln!("warning: {e:#}");
+        if let Some(display) = &display {
+            display.show(film.resolve());
+        }
+        if snapshots.checkpoint_due() {
+            if let Err(e) = save_checkpoint(film) {
+                eprintln!("warning: {e:#}");
+            }
         }
     };
     // Only now that every input has been checked: a failing run prints one line.
     report_loading(plan, loaded);
     report_start(plan, &film, timeline, loaded.report.obj_bytes);
-    let checkpointing = plan.checkpoint_every.map(|every| Checkpointing {
+    let checkpointing = snapshots.every.map(|every| Checkpointing {
         every,
         write: &periodic,
     });
     let (film, stats, passes, view) =
         pool.install(|| render_with_progress(loaded, accel, plan, film, &stop, checkpointing));
+    if let Some(display) = display {
+        display.finish(film.resolve());
+    }
 
     let write_image = |path: &Path| write_film_image(plan, &film, path);
     let write_checkpoint = || save_checkpoint(&film);
@@ -789,6 +812,46 @@ fn finish_render<A: Accel>(
         write_guide_image(path, *pixel, view, plan.guide_sky)?;
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// How often the film is snapshotted while rendering: for checkpoints every
+/// `--checkpoint-every`, and for `--display` about once a second.
+struct Snapshots {
+    every: Option<Duration>,
+    checkpoint_every: Option<Duration>,
+    last_checkpoint: Mutex<Instant>,
+}
+
+impl Snapshots {
+    /// The live preview's interval.
+    const DISPLAY_EVERY: Duration = Duration::from_secs(1);
+
+    fn new(checkpoint_every: Option<Duration>, display: bool) -> Snapshots {
+        let every = match (checkpoint_every, display) {
+            (Some(c), true) => Some(c.min(Self::DISPLAY_EVERY)),
+            (None, true) => Some(Self::DISPLAY_EVERY),
+            (c, false) => c,
+        };
+        Snapshots {
+            every,
+            checkpoint_every,
+            last_checkpoint: Mutex::new(Instant::now()),
+        }
+    }
+
+    /// Whether this snapshot is also a checkpoint: the first past `--checkpoint-every`
+    /// since the last (snapshots come a little late, so half an interval early counts).
+    fn checkpoint_due(&self) -> bool {
+        let (Some(checkpoint), Some(every)) = (self.checkpoint_every, self.every) else {
+            return false;
+        };
+        let mut last = self.last_checkpoint.lock().unwrap_or_else(|p| p.into_inner());
+        if last.elapsed() + every / 2 >= checkpoint {
+            *last = Instant::now();
+            return true;
+        }
+        false
+    }
 }
 
 /// `--guide-image`'s size: twice as wide as high, as the sphere's azimuth spans twice

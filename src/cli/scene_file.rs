@@ -17,8 +17,9 @@ const CAMERA_KEYS: [&str; 6] = ["eye", "look-at", "up", "fov", "aperture", "focu
 /// Keys of `[environment]`; `env` is a path, relative to the scene file.
 const ENVIRONMENT_KEYS: [&str; 4] = ["background", "env", "env-scale", "env-rotate"];
 /// Flags about one run rather than the scene: the command line's only.
-const RUN_ONLY: [&str; 7] = [
+const RUN_ONLY: [&str; 8] = [
     "output",
+    "display",
     "checkpoint",
     "resume",
     "shard",
