@@ -25,6 +25,9 @@ pub struct DenoiseArgs {
     /// texture and edges come out softer).
     #[arg(long)]
     no_aux: bool,
+    /// Print the summary as one JSON object on stdout, for scripts.
+    #[arg(long)]
+    json: bool,
     #[command(flatten)]
     tone: super::ToneArgs,
 }
@@ -55,19 +58,32 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
     } else {
         denoised.save_with(&args.output, &args.tone.into())?;
     }
-    eprintln!(
-        "denoised {} ({}x{}, {}) into {} in {:.2} s ({filter_seconds:.2} s in OIDN)",
-        args.input.display(),
-        color.width,
-        color.height,
-        if aux.is_some() {
-            "guided by albedo and normal"
-        } else {
-            "colour only"
-        },
-        args.output.display(),
-        start.elapsed().as_secs_f64()
-    );
+    let seconds = start.elapsed().as_secs_f64();
+    if super::verbosity::status() {
+        eprintln!(
+            "denoised {} ({}x{}, {}) into {} in {seconds:.2} s ({filter_seconds:.2} s in OIDN)",
+            args.input.display(),
+            color.width,
+            color.height,
+            if aux.is_some() {
+                "guided by albedo and normal"
+            } else {
+                "colour only"
+            },
+            args.output.display(),
+        );
+    }
+    if args.json {
+        super::print_json(&serde_json::json!({
+            "input": args.input.display().to_string(),
+            "output": args.output.display().to_string(),
+            "width": color.width,
+            "height": color.height,
+            "guided_by_albedo_and_normal": aux.is_some(),
+            "seconds": seconds,
+            "filter_seconds": filter_seconds,
+        }));
+    }
     Ok(())
 }
 

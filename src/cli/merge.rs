@@ -26,17 +26,20 @@ pub struct MergeArgs {
     #[arg(long)]
     allow_partial: bool,
     /// Render passes to add to an .exr output as layers (as `ember render --aov`).
-    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = super::render::parse_aov)]
+    #[arg(long, value_name = "PASSES", value_delimiter = ',', value_parser = super::parse_aov)]
     aov: Vec<Aov>,
     /// Denoise the merged image with Intel Open Image Denoise (as `ember render --denoise`).
     #[arg(long)]
     denoise: bool,
+    /// Print the summary as one JSON object on stdout, for scripts.
+    #[arg(long)]
+    json: bool,
     #[command(flatten)]
     tone: super::ToneArgs,
 }
 
 pub fn run(args: MergeArgs) -> Result<ExitCode> {
-    super::render::check_image_output(&args.output, &args.aov, args.denoise)?;
+    super::check_image_output(&args.output, &args.aov, args.denoise)?;
     let start = Instant::now();
     let (film, report) = merge::merge(&args.shards, args.allow_partial)?;
     for range in &report.missing {
@@ -59,24 +62,40 @@ pub fn run(args: MergeArgs) -> Result<ExitCode> {
     // A signal now would cut the write short and leave its temporary file: it waits.
     let stop = super::stop_on_signals()?;
     output.write(&film, &args.output)?;
-    eprintln!(
-        "merged {} shards ({}x{}, {} spp) into {} in {:.2} s",
-        args.shards.len(),
-        film.width,
-        film.height,
-        film.samples.end,
-        args.output.display(),
-        start.elapsed().as_secs_f64()
-    );
-    match stop.load(Ordering::SeqCst) {
+    let seconds = start.elapsed().as_secs_f64();
+    if super::verbosity::status() {
+        eprintln!(
+            "merged {} shards ({}x{}, {} spp) into {} in {seconds:.2} s",
+            args.shards.len(),
+            film.width,
+            film.height,
+            film.samples.end,
+            args.output.display(),
+        );
+    }
+    let signal = stop.load(Ordering::SeqCst);
+    if signal != 0 {
+        eprintln!(
+            "interrupted by {} while writing {}: it was completed first",
+            super::signal_name(signal),
+            args.output.display()
+        );
+    }
+    if args.json {
+        let path = |p: &std::path::Path| p.display().to_string();
+        super::print_json(&serde_json::json!({
+            "output": path(&args.output),
+            "shards": args.shards.iter().map(|p| path(p)).collect::<Vec<_>>(),
+            "width": film.width,
+            "height": film.height,
+            "spp": film.samples.end,
+            "missing_samples": report.missing.iter().map(|r| [r.start, r.end]).collect::<Vec<_>>(),
+            "incomplete_shards": report.incomplete.iter().map(|p| path(p)).collect::<Vec<_>>(),
+            "seconds": seconds,
+        }));
+    }
+    match signal {
         0 => Ok(ExitCode::SUCCESS),
-        signal => {
-            eprintln!(
-                "interrupted by {} while writing {}: it was completed first",
-                super::signal_name(signal),
-                args.output.display()
-            );
-            Ok(ExitCode::from((128 + signal).min(255) as u8))
-        }
+        signal => Ok(ExitCode::from((128 + signal).min(255) as u8)),
     }
 }

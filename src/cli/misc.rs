@@ -7,9 +7,11 @@ use clap::Args;
 
 use ember::embree::Device;
 use ember::image::{self, Crop, Image};
-use ember::scene::{load_obj_with, LoadOptions, SceneFile};
+use glam::Vec3;
 
-use super::scene_file::is_scene_file;
+use super::render::LoadedScene;
+use ember::scene::{LoadOptions, Material, Model, Scene, Texels};
+
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -26,6 +28,9 @@ pub struct CompareArgs {
     /// with N² times the samples
     #[arg(long, value_name = "N")]
     downsample: Option<u32>,
+    /// Print the figures as one JSON object on stdout, for scripts.
+    #[arg(long)]
+    json: bool,
 }
 
 pub fn compare(args: CompareArgs) -> Result<()> {
@@ -44,10 +49,25 @@ pub fn compare(args: CompareArgs) -> Result<()> {
         None => image::compare(&image, &reference)?,
         Some(crop) => image::compare_crop(&image, &reference, crop)?,
     };
-    println!(
-        "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
-        error.mse, error.rel_mse, error.psnr
-    );
+    if args.json {
+        super::print_json(&serde_json::json!({
+            "image": args.image.display().to_string(),
+            "reference": args.reference.display().to_string(),
+            "width": reference.width,
+            "height": reference.height,
+            "crop": args.crop.map(|c| [c.x, c.y, c.width, c.height]),
+            "downsample": args.downsample,
+            "mse": error.mse,
+            "rel_mse": error.rel_mse,
+            // Infinite for identical images, which JSON cannot hold: null then.
+            "psnr": error.psnr.is_finite().then_some(error.psnr),
+        }));
+    } else {
+        println!(
+            "MSE {:.6e}  relMSE {:.6e}  PSNR {:.2} dB",
+            error.mse, error.rel_mse, error.psnr
+        );
+    }
     Ok(())
 }
 
@@ -73,21 +93,47 @@ pub fn info(args: InfoArgs) -> Result<()> {
     }
 }
 
-/// The scene as `ember render` loads it: the summary on stdout, each warning on stderr.
+/// The scene as `ember render SCENE` loads it, on stdout (each warning on stderr):
+/// its triangles, materials, emitters and sky, textures, bounds, and the camera ember
+/// would use, as flags.
 fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
-    let (scene, report) = if is_scene_file(path) {
-        SceneFile::read(path)?.load_scene(options)?
-    } else {
-        load_obj_with(path, options)?
-    };
+    let loaded = super::render::load_as_rendered(path, options.strict)?;
+    let (scene, report) = (&loaded.scene, &loaded.report);
     for warning in &report.warnings {
         eprintln!("warning: {warning}");
     }
     println!("{}: {}", path.display(), report.summary());
-    let (lo, hi) = scene.bounds();
+    let placed = scene.instancing.as_ref().map_or(String::new(), |instancing| {
+        format!(
+            "; {} placements put {} triangles in the world",
+            instancing.instances.len(),
+            instancing.placed_triangles()
+        )
+    });
+    let dropped = match report.degenerate_dropped {
+        0 => String::new(),
+        n => format!(", {n} degenerate dropped"),
+    };
     println!(
-        "{} vertices; bounds ({}, {}, {}) to ({}, {}, {})",
-        report.vertices, lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+        "triangles: {} ({} vertices{dropped}){placed}",
+        report.triangles, report.vertices
+    );
+    print_materials(scene);
+    print_lights(&loaded);
+    print_textures(scene);
+    let (lo, hi) = scene.bounds();
+    let size = hi - lo;
+    println!(
+        "bounds: ({}, {}, {}) to ({}, {}, {}), size {} x {} x {}",
+        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, size.x, size.y, size.z
+    );
+    let how = match loaded.automatic_camera {
+        true => "automatic, framing the bounds from +z",
+        false => "the scene file's",
+    };
+    println!(
+        "camera ({how}): {}",
+        super::render::camera_flags(&loaded.camera_settings)
     );
     match report.vertex_colours {
         Some(colours) => println!(
@@ -97,6 +143,135 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         None => println!("vertex colours: none"),
     }
     Ok(())
+}
+
+/// How many materials to list before "and N more" (all with `-v`).
+const MATERIALS_LISTED: usize = 40;
+
+/// Each material with its model, its maps, whether it emits, and its triangles.
+fn print_materials(scene: &Scene) {
+    let mut triangles = vec![0usize; scene.materials.len()];
+    for &m in &scene.mesh.material {
+        if let Some(count) = triangles.get_mut(m as usize) {
+            *count += 1;
+        }
+    }
+    println!("materials: {}", scene.materials.len());
+    let shown = match super::verbosity::verbose() {
+        true => scene.materials.len(),
+        false => MATERIALS_LISTED,
+    };
+    // The grey stand-in for faces without a material is listed only when used.
+    let listed = scene.materials.iter().zip(&triangles);
+    for (m, count) in listed.filter(|(m, &n)| n > 0 || m.name != "default").take(shown) {
+        println!("  {:?}: {}; {count} triangles", m.name, describe(m));
+    }
+    if scene.materials.len() > shown {
+        println!("  ... and {} more (-v lists all)", scene.materials.len() - shown);
+    }
+}
+
+/// `GGX conductor (alpha 0.1), Ks (0.9,0.9,0.9), maps map_Kd, bump, emits Ke (17,12,4)`.
+fn describe(m: &Material) -> String {
+    let rgb = |v: Vec3| format!("({},{},{})", v.x, v.y, v.z);
+    let mut s = match m.model {
+        Model::Lambert => format!("Lambert, Kd {}", rgb(m.diffuse)),
+        Model::Conductor { alpha } => {
+            format!("GGX conductor (alpha {alpha}), Ks {}", rgb(m.specular))
+        }
+        Model::Coated { alpha } => format!(
+            "Lambert under a GGX coat (alpha {alpha}), Kd {}, Ks {}",
+            rgb(m.diffuse),
+            rgb(m.specular)
+        ),
+        Model::Glass { ior } => format!("smooth glass, index {ior}"),
+    };
+    let maps = &m.maps;
+    let named = [
+        (m.diffuse_texture, "map_Kd"),
+        (maps.specular, "map_Ks"),
+        (maps.emission, "map_Ke"),
+        (maps.shininess, "map_Ns"),
+        (maps.roughness, "map_Pr"),
+        (maps.metallic, "map_Pm"),
+        (maps.bump, "bump"),
+        (maps.normal, "norm"),
+        (m.opacity_map, "map_d"),
+    ];
+    let present: Vec<&str> = named.iter().filter(|(t, _)| t.is_some()).map(|(_, n)| *n).collect();
+    if !present.is_empty() {
+        s += &format!(", maps {}", present.join(" "));
+    }
+    if m.metallic > 0.0 {
+        s += &format!(", metallic {}", m.metallic);
+    }
+    if m.opacity < 1.0 {
+        s += &format!(", opacity {}", m.opacity);
+    }
+    if m.is_emissive() {
+        s += &format!(", emits Ke {}", rgb(m.emission));
+    }
+    s
+}
+
+/// The lights: emissive triangles by material, with their area and power, and the sky.
+fn print_lights(loaded: &LoadedScene) {
+    let scene = &loaded.scene;
+    let lights = scene.light_mesh();
+    // Per emitting material: triangles, area, and power (π · area · luminance of Ke,
+    // the flux of a one-sided diffuse emitter; a map_Ke scales it further).
+    let mut by_material: Vec<(u32, usize, f64, f64)> = Vec::new();
+    for &t in &scene.emitters {
+        let [a, b, c] = lights.vertices(t);
+        let area = 0.5 * f64::from((b - a).cross(c - a).length());
+        let m = lights.material[t as usize];
+        let ke = scene.materials[m as usize].emission;
+        let luminance = f64::from(ke.dot(Vec3::new(0.2126, 0.7152, 0.0722)));
+        let power = std::f64::consts::PI * area * luminance;
+        match by_material.iter_mut().find(|e| e.0 == m) {
+            Some(e) => (e.1, e.2, e.3) = (e.1 + 1, e.2 + area, e.3 + power),
+            None => by_material.push((m, 1, area, power)),
+        }
+    }
+    println!(
+        "emitters: {} emissive triangles in {} material{}",
+        scene.emitters.len(),
+        by_material.len(),
+        if by_material.len() == 1 { "" } else { "s" }
+    );
+    for (m, count, area, power) in &by_material {
+        println!(
+            "  {:?}: {count} triangles, area {area:.4}, power {power:.4} (pi x area x luminance of Ke)",
+            scene.materials[*m as usize].name
+        );
+    }
+    println!("sky: {}", loaded.sky);
+}
+
+/// The textures: how many, their sizes and what they hold in memory.
+fn print_textures(scene: &Scene) {
+    let mut bytes = 0;
+    let mut sizes = Vec::new();
+    for t in &scene.textures {
+        let (kind, held) = match &t.texels {
+            Texels::Srgb8(v) => ("8-bit sRGB", v.len()),
+            Texels::Rgb8(v) => ("8-bit linear RGB", v.len()),
+            Texels::Gray8(v) => ("8-bit grey", v.len()),
+            Texels::RgbF32(v) => ("float RGB", 12 * v.len()),
+            Texels::GrayF32(v) => ("float grey", 4 * v.len()),
+        };
+        bytes += held;
+        sizes.push(format!("{}x{} {kind}", t.width, t.height));
+    }
+    match sizes.is_empty() {
+        true => println!("textures: none"),
+        false => println!(
+            "textures: {} ({}), {}",
+            sizes.len(),
+            ember::limits::human_bytes(bytes as u64),
+            sizes.join(", ")
+        ),
+    }
 }
 
 fn build_info() -> Result<()> {

@@ -8,7 +8,7 @@ pub mod machine;
 pub mod merge;
 pub mod misc;
 pub mod render;
-pub mod scene_file;
+pub mod scene_input;
 pub mod tev;
 pub mod verbosity;
 
@@ -21,7 +21,11 @@ use glam::Vec3;
 use signal_hook::consts::{SIGINT, SIGTERM};
 use signal_hook::iterator::Signals;
 
+use std::path::Path;
+
+use anyhow::bail;
 use ember::accel::AccelKind;
+use ember::film::aov::Aov;
 use ember::integrator::IntegratorKind;
 use ember::light::LightSamplerKind;
 
@@ -224,4 +228,37 @@ fn parse_exposure(s: &str) -> Result<f32, String> {
         return Err(format!("{s}: exposure must be between -64 and 64 stops"));
     }
     Ok(ev)
+}
+
+/// `--aov`'s names.
+pub fn parse_aov(s: &str) -> Result<Aov, String> {
+    Aov::from_name(s.trim()).ok_or_else(|| {
+        let names: Vec<&str> = Aov::ALL.iter().map(|a| a.name()).collect();
+        format!("unknown pass {s:?}: choose from {}", names.join(", "))
+    })
+}
+
+/// Refuses, before any work, an image output that cannot be written or cannot hold
+/// what is asked of it, and `--denoise` in an ember that cannot denoise.
+pub fn check_image_output(output: &Path, aovs: &[Aov], denoise: bool) -> Result<()> {
+    ember::image::check_output(output)?;
+    let exr = ember::image::OutputFormat::from_path(output)? == ember::image::OutputFormat::Exr;
+    if !aovs.is_empty() && !exr {
+        bail!(
+            "--aov needs an .exr output, which holds the passes as layers beside the image; \
+             {} holds one image",
+            output.display()
+        );
+    }
+    if denoise {
+        ember::denoise::available()?;
+    }
+    Ok(())
+}
+
+/// `--json`'s one object on stdout, printed once the run has succeeded (a failing run
+/// prints its error on stderr and nothing on stdout).
+pub fn print_json(value: &serde_json::Value) {
+    let text = serde_json::to_string_pretty(value).expect("a JSON value serialises");
+    println!("{text}");
 }

@@ -12,11 +12,13 @@
 pub mod adaptive;
 mod guide_view;
 mod identity;
+mod probe;
 mod training;
 
 pub use adaptive::Adaptive;
 pub use guide_view::{guide_view, GuidePicture, GuideView};
 pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDING_ITERATIONS};
+pub use probe::{probe_camera, CameraProbe};
 pub use training::train_guide;
 
 use std::ops::Range;

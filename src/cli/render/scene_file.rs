@@ -9,7 +9,7 @@ use std::ffi::OsString;
 use anyhow::{bail, Result};
 use clap::{ArgMatches, Args, Command, FromArgMatches};
 
-use super::render::RenderArgs;
+use super::args::RenderArgs;
 use ember::scene::{SceneFile, SceneFileError, Setting};
 
 /// Keys of a `[camera.NAME]` table.
@@ -17,9 +17,10 @@ const CAMERA_KEYS: [&str; 6] = ["eye", "look-at", "up", "fov", "aperture", "focu
 /// Keys of `[environment]`; `env` is a path, relative to the scene file.
 const ENVIRONMENT_KEYS: [&str; 4] = ["background", "env", "env-scale", "env-rotate"];
 /// Flags about one run rather than the scene: the command line's only.
-const RUN_ONLY: [&str; 8] = [
+const RUN_ONLY: [&str; 9] = [
     "output",
     "display",
+    "json",
     "checkpoint",
     "resume",
     "shard",
@@ -27,12 +28,6 @@ const RUN_ONLY: [&str; 8] = [
     "quiet",
     "verbose",
 ];
-
-/// Whether `ember render` was given a scene file rather than an OBJ.
-pub fn is_scene_file(path: &std::path::Path) -> bool {
-    path.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("toml"))
-}
 
 /// `ember render`'s flags, and the global `-q` and `-v` (already read by `main`).
 fn render_command() -> Command {
@@ -46,6 +41,14 @@ fn render_command() -> Command {
         .arg(global("quiet", 'q'))
         .arg(global("verbose", 'v'))
         .args_override_self(true)
+}
+
+/// The render's arguments of a command line without a scene file (`user`, the
+/// arguments after `render`).
+pub fn command_line_args(user: &[OsString]) -> Result<RenderArgs> {
+    let argv = std::iter::once(OsString::from("render")).chain(user.iter().cloned());
+    let matches = render_command().try_get_matches_from(argv)?;
+    Ok(RenderArgs::from_arg_matches(&matches)?)
 }
 
 /// The render's arguments: the scene file's flags, then `user` (the command line's

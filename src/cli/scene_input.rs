@@ -1,0 +1,62 @@
+//! The scene formats `ember render` and `ember info` read, told apart by extension, so
+//! that a file in another format is refused by name with the list of what ember reads
+//! (rather than read as an OBJ with no faces).
+
+use std::path::Path;
+
+use anyhow::{bail, Result};
+
+
+/// What ember reads, for messages.
+pub const FORMATS: &str = "OBJ (.obj) and ember scene files (.toml)";
+
+/// A scene's format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SceneFormat {
+    Obj,
+    /// An ember scene file: OBJs placed, cameras, environment, settings.
+    SceneFile,
+}
+
+impl SceneFormat {
+    /// The format of `path` by its extension (any case), or one line naming what
+    /// ember reads.
+    pub fn of(path: &Path) -> Result<SceneFormat> {
+        let ext = path
+            .extension()
+            .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        match ext.as_deref() {
+            Some("obj") => Ok(SceneFormat::Obj),
+            Some("toml") => Ok(SceneFormat::SceneFile),
+            Some(ext) => bail!(
+                "{}: ember reads {FORMATS}, not {}",
+                path.display(),
+                known_format(ext).map_or_else(|| format!(".{ext} files"), str::to_owned)
+            ),
+            None => bail!(
+                "{}: ember reads {FORMATS}, told apart by the extension; this file has none",
+                path.display()
+            ),
+        }
+    }
+}
+
+/// The name of a format users try, for the message.
+fn known_format(ext: &str) -> Option<&'static str> {
+    Some(match ext {
+        "ply" => "PLY",
+        "gltf" | "glb" => "glTF",
+        "stl" => "STL",
+        "fbx" => "FBX",
+        "dae" => "COLLADA",
+        "usd" | "usda" | "usdc" | "usdz" => "USD",
+        "abc" => "Alembic",
+        "blend" => "Blender files",
+        "3ds" => "3DS",
+        "pbrt" => "pbrt scenes",
+        "xml" => "XML (Mitsuba) scenes",
+        "png" | "jpg" | "jpeg" | "exr" | "hdr" | "tga" | "bmp" => "images",
+        "mtl" => "material libraries alone (give the OBJ that names it)",
+        _ => return None,
+    })
+}
