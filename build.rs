@@ -39,8 +39,9 @@ fn main() {
 
     let embree = find_embree().unwrap_or_else(|| {
         eprintln!(
-            "error: Intel Embree was not found: install it with `apt-get install libembree-dev libclang-dev` \
-             (or build one with ../shared/embree4/setup.sh DIR) and point EMBREE_DIR at a prefix holding include/ and lib/"
+            "error: Intel Embree was not found: run `bash scripts/setup.sh` (on Debian it installs \
+             libembree-dev, libclang-dev and pkg-config), or install Embree 3 or 4 and point EMBREE_DIR \
+             at a prefix holding include/ and lib/"
         );
         exit(1);
     });

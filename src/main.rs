@@ -55,21 +55,35 @@ The guide: docs/guide.md; every flag: docs/reference/cli.md.";
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render an OBJ scene or a scene file (.toml) to PNG (sRGB), EXR or HDR (linear).
+    /// Render an OBJ or a scene file (.toml) to PNG, EXR or HDR.
+    ///
+    /// PNG is 8-bit sRGB (tone-mapped); EXR and HDR hold linear radiance. Progressive:
+    /// Ctrl-C writes the image so far and a checkpoint that --resume continues.
     Render(Box<RenderArgs>),
-    /// Merge the shard files of a split render (`render --shard I/N`) into one image.
+    /// Merge the shard files of a split render into one image.
+    ///
+    /// The shards come from `ember render --shard I/N`; they must be of one render and
+    /// cover its samples, which is checked.
     Merge(MergeArgs),
-    /// Denoise an EXR render with Intel Open Image Denoise, guided by its albedo and
-    /// normal layers (`ember render --aov albedo,normal`).
+    /// Denoise an EXR render with Intel Open Image Denoise.
+    ///
+    /// Guided by its albedo and normal layers (`ember render --aov albedo,normal`).
     Denoise(DenoiseArgs),
-    /// Time Embree against the native BVH: build time, memory, and rays per second for
-    /// primary, diffuse and shadow rays, single-threaded and on several threads.
+    /// Time Embree against the native BVH (builds, memory, Mrays/s).
+    ///
+    /// Build time, memory, and rays per second for primary, diffuse and shadow rays, on
+    /// one thread and on several, side by side with the ratio to Embree's single rays.
     Bench(BenchArgs),
-    /// Print MSE, relative MSE and PSNR of an image against a reference (EXR, HDR or PNG).
+    /// Print MSE, relative MSE and PSNR of an image against a reference.
+    ///
+    /// EXR and HDR are read as linear, PNG as sRGB.
     Compare(CompareArgs),
-    /// Show the Embree library in use, its ISA and threads, the Open Image Denoise
-    /// library and device, and how ember was built; or, given a scene, what ember reads
-    /// of it.
+    /// Show what ember reads of a scene, or the libraries it runs on.
+    ///
+    /// Given a scene: its triangles, materials, emitters and sky, textures, bounds, and
+    /// the camera `ember render` would use, as flags. Without one: the Embree library in
+    /// use, its ISA and threads, the Open Image Denoise library and device, and how
+    /// ember was built.
     Info(InfoArgs),
 }
 

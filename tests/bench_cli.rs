@@ -47,19 +47,33 @@ fn json_document_has_every_measurement() {
     assert!(!machine["isa"].as_str().unwrap().is_empty(), "{machine}");
     assert!(machine["hardware_threads"].as_u64().unwrap() >= 1);
     let embree = doc["embree_version"].as_str().unwrap();
-    assert!(embree.starts_with('3') || embree.starts_with('4'), "{embree}");
+    assert!(
+        embree.starts_with('3') || embree.starts_with('4'),
+        "{embree}"
+    );
     assert_eq!(machine["embree_version"], embree);
-    assert!(doc["baselines"]["traversal"].as_str().unwrap().contains("Embree single"));
+    assert!(doc["baselines"]["traversal"]
+        .as_str()
+        .unwrap()
+        .contains("Embree single"));
     // The table (on stderr with --json) names the same machine, and has its legend.
     let table = String::from_utf8_lossy(&out.stderr);
     assert!(table.contains(machine["cpu"].as_str().unwrap()), "{table}");
     assert!(table.contains(&format!("Embree {embree}")), "{table}");
-    assert!(table.contains("Legend:") && table.contains("embree single (base)"), "{table}");
+    assert!(
+        table.contains("Legend:") && table.contains("embree single (base)"),
+        "{table}"
+    );
 
     // The chart: one panel per mesh, a bar per backend and API, in one SVG document.
     let svg = std::fs::read_to_string(dir.path().join("bench.svg")).unwrap();
     assert!(svg.starts_with("<svg") && svg.trim_end().ends_with("</svg>"));
-    for text in ["CornellBox-Original.obj", "sphere:2000", "embree packet8", "bvh single"] {
+    for text in [
+        "CornellBox-Original.obj",
+        "sphere:2000",
+        "embree packet8",
+        "bvh single",
+    ] {
         assert!(svg.contains(text), "the chart has no {text:?}");
     }
 
@@ -191,7 +205,10 @@ fn missing_mesh_is_one_error_line() {
 #[test]
 fn bad_procedural_spec_and_nothing_to_do_are_errors() {
     // A bad flag value is clap's error, with its usage line; nothing to do is ember's.
-    let out = ember().args(["bench", "--procedural", "cube:10"]).output().unwrap();
+    let out = ember()
+        .args(["bench", "--procedural", "cube:10"])
+        .output()
+        .unwrap();
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.starts_with("error: invalid value 'cube:10'"), "{err}");

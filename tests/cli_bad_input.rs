@@ -34,6 +34,27 @@ fn assert_one_line_error(out: &Output, expect_in_message: &str) {
     assert!(out.stdout.is_empty());
 }
 
+/// Asserts the run failed with clap's own message for a bad flag: exit code 2, the
+/// first line `error: ...` naming the flag, then only clap's help lines (a tip, the
+/// usage, where to read more), nothing on stdout, no panic text.
+fn assert_flag_error(out: &Output, expect_in_message: &str) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(2), "{stderr}");
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert!(lines[0].starts_with("error:"), "{stderr}");
+    assert!(lines[0].contains(expect_in_message), "{stderr}");
+    for line in &lines[1..] {
+        let clap_line = ["  tip:", "Usage:", "For more information", "  ["]
+            .iter()
+            .any(|start| line.starts_with(start));
+        assert!(clap_line, "not one of clap's lines: {line:?} in {stderr}");
+    }
+    for bad in ["panicked", "RUST_BACKTRACE", "stack backtrace"] {
+        assert!(!stderr.contains(bad), "{stderr}");
+    }
+    assert!(out.stdout.is_empty());
+}
+
 /// Writes `files` into a fresh directory and renders `scene.obj` there.
 fn render_files(files: &[(&str, &[u8])], extra: &[&str], expect: &str) {
     let dir = tempfile::tempdir().unwrap();
@@ -335,11 +356,14 @@ fn nonsense_flag_values() {
         ("--eye", "1,2,nan", "--eye"),
         ("--seed", "x", "--seed"),
     ] {
-        let args: Vec<&str> = [flag, value]
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::write(dir.path().join("scene.obj"), TRIANGLE).unwrap();
+        let args: Vec<&str> = ["render", "scene.obj", "-o", "out.png", flag, value]
             .into_iter()
             .filter(|a| !a.is_empty())
             .collect();
-        render_files(&[("scene.obj", TRIANGLE.as_bytes())], &args, expect);
+        assert_flag_error(&ember(&args, dir.path()), expect);
+        assert_no_output(dir.path());
     }
 }
 

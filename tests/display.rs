@@ -18,7 +18,9 @@ fn render(out: &Path, extra: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_ember"))
         .arg("render")
         .arg(cornell())
-        .args(["--width", "150", "--height", "140", "--spp", "8", "--seed", "3"])
+        .args([
+            "--width", "150", "--height", "140", "--spp", "8", "--seed", "3",
+        ])
         .arg("-o")
         .arg(out)
         .args(extra)
@@ -39,7 +41,11 @@ struct Received {
 
 /// Reads a NUL-terminated string at `*at`.
 fn string(b: &[u8], at: &mut usize) -> String {
-    let end = b[*at..].iter().position(|&c| c == 0).expect("NUL-terminated") + *at;
+    let end = b[*at..]
+        .iter()
+        .position(|&c| c == 0)
+        .expect("NUL-terminated")
+        + *at;
     let s = String::from_utf8(b[*at..end].to_vec()).unwrap();
     *at = end + 1;
     s
@@ -91,7 +97,9 @@ fn decode(mut stream: TcpStream) -> Received {
                 let strides: Vec<i64> = (0..channels).map(|_| i64_at(&b, &mut at)).collect();
                 assert_eq!(b.len() - at, w * h * channels * 4, "the tile's values");
                 assert!(x + w <= got.size.0 && y + h <= got.size.1);
-                let value = |i: usize| f32::from_le_bytes(b[at + 4 * i..at + 4 * i + 4].try_into().unwrap());
+                let value = |i: usize| {
+                    f32::from_le_bytes(b[at + 4 * i..at + 4 * i + 4].try_into().unwrap())
+                };
                 for c in 0..channels {
                     for ty in 0..h {
                         for tx in 0..w {
@@ -128,7 +136,11 @@ fn the_viewer_ends_with_the_image_written_and_the_image_is_unchanged() {
     let (address, viewer) = viewer();
     let shown = dir.path().join("shown.exr");
     let out = render(&shown, &["--display", &address]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     assert!(warnings(&out).is_empty(), "{:?}", warnings(&out));
     let got = viewer.join().unwrap();
     assert_eq!(got.creates, 1);
@@ -141,25 +153,48 @@ fn the_viewer_ends_with_the_image_written_and_the_image_is_unchanged() {
     let out = render(&plain, &[]);
     assert!(out.status.success());
     let written = std::fs::read(&shown).unwrap();
-    assert_eq!(written, std::fs::read(&plain).unwrap(), "--display changed the image");
+    assert_eq!(
+        written,
+        std::fs::read(&plain).unwrap(),
+        "--display changed the image"
+    );
 
     let image = ember::image::Image::load(&shown).unwrap();
     let expected: Vec<f32> = image.pixels.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
     assert_eq!(got.pixels.len(), expected.len());
-    let differ = got.pixels.iter().zip(&expected).filter(|(a, b)| a.to_bits() != b.to_bits());
-    assert_eq!(differ.count(), 0, "the viewer's last image is not the one written");
+    let differ = got
+        .pixels
+        .iter()
+        .zip(&expected)
+        .filter(|(a, b)| a.to_bits() != b.to_bits());
+    assert_eq!(
+        differ.count(),
+        0,
+        "the viewer's last image is not the one written"
+    );
 }
 
 #[test]
 fn an_absent_viewer_costs_one_warning() {
     // A port nothing listens on: bound, then released.
-    let address = TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().to_string();
+    let address = TcpListener::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .to_string();
     let dir = tempfile::tempdir().unwrap();
     let out = render(&dir.path().join("x.png"), &["--display", &address]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let warnings = warnings(&out);
     assert_eq!(warnings.len(), 1, "{warnings:?}");
-    assert!(warnings[0].contains("tev viewer") && warnings[0].contains(&address), "{warnings:?}");
+    assert!(
+        warnings[0].contains("tev viewer") && warnings[0].contains(&address),
+        "{warnings:?}"
+    );
     assert!(dir.path().join("x.png").is_file());
 }
 
@@ -187,7 +222,11 @@ fn a_viewer_that_goes_away_costs_one_warning() {
         .output()
         .unwrap();
     viewer.join().unwrap();
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     let warnings = warnings(&out);
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     assert!(warnings[0].contains("went away"), "{warnings:?}");
@@ -199,7 +238,10 @@ fn a_malformed_address_is_refused_before_any_work() {
     let out = render(&dir.path().join("x.png"), &["--display", "localhost"]);
     assert_eq!(out.status.code(), Some(2));
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.starts_with("error: invalid value 'localhost' for '--display"), "{err}");
+    assert!(
+        err.starts_with("error: invalid value 'localhost' for '--display"),
+        "{err}"
+    );
     assert!(err.contains("HOST:PORT"), "{err}");
     assert!(!dir.path().join("x.png").exists());
 }

@@ -135,11 +135,25 @@ fn resuming_a_checkpoint_equals_an_uninterrupted_render_bit_for_bit() {
     let mut args = render_args(&first, "3");
     args.extend([scene, "--checkpoint-every", "1000", "--checkpoint", &ckpt]);
     assert!(ember(&args, &[]).status.success());
+    // With --checkpoint-every the resumed render keeps its final checkpoint (a later
+    // --resume refines it) and says where it is.
     let mut args = render_args(&resumed, "8");
-    args.extend([scene, "--resume", "--checkpoint", &ckpt]);
+    args.extend([
+        scene,
+        "--resume",
+        "--checkpoint",
+        &ckpt,
+        "--checkpoint-every",
+        "1000",
+    ]);
     let out = ember(&args, &[]);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(stderr(&out).contains("resuming from 3 spp"));
+    assert!(
+        stderr(&out).contains(&format!("kept the checkpoint {ckpt}")),
+        "{}",
+        stderr(&out)
+    );
     let mut args = render_args(&direct, "8");
     args.push(scene);
     assert!(ember(&args, &[]).status.success());
@@ -182,6 +196,30 @@ fn resuming_a_checkpoint_equals_an_uninterrupted_render_bit_for_bit() {
     args.extend([scene, "--resume", "--checkpoint", &ckpt]);
     let line = error_line(&ember(&args, &[]));
     assert!(line.contains("not a valid ember checkpoint"), "{line}");
+    assert_eq!(leftovers(dir.path()), Vec::<String>::new());
+}
+
+#[test]
+fn a_finished_resume_removes_its_checkpoint_and_partial_image() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = cornell();
+    let scene = scene.to_str().unwrap();
+    let p = |n: &str| dir.path().join(n).to_str().unwrap().to_owned();
+    let (out, partial, ckpt) = (p("out.exr"), p("out.partial.exr"), p("out.exr.checkpoint"));
+    let mut args = render_args(&out, "3");
+    args.extend([scene, "--checkpoint-every", "1000"]);
+    assert!(ember(&args, &[]).status.success());
+    assert!(Path::new(&ckpt).is_file());
+    // What an interrupted render leaves beside the checkpoint.
+    std::fs::copy(&out, &partial).unwrap();
+    std::fs::remove_file(&out).unwrap();
+    let mut args = render_args(&out, "8");
+    args.extend([scene, "--resume"]);
+    let run = ember(&args, &[]);
+    assert!(run.status.success(), "{}", stderr(&run));
+    assert!(Path::new(&out).is_file());
+    assert!(!Path::new(&partial).exists(), "the partial image is left");
+    assert!(!Path::new(&ckpt).exists(), "the checkpoint is left");
     assert_eq!(leftovers(dir.path()), Vec::<String>::new());
 }
 

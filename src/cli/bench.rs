@@ -104,8 +104,14 @@ pub fn run(args: BenchArgs) -> Result<()> {
         io::check_writable(path)?;
     }
     if let Some(path) = &args.plot {
-        if !path.extension().is_some_and(|e| e.eq_ignore_ascii_case("svg")) {
-            bail!("--plot {}: the chart is SVG, give a .svg file", path.display());
+        if !path
+            .extension()
+            .is_some_and(|e| e.eq_ignore_ascii_case("svg"))
+        {
+            bail!(
+                "--plot {}: the chart is SVG, give a .svg file",
+                path.display()
+            );
         }
         io::check_writable(path)?;
     }

@@ -12,7 +12,6 @@ use glam::Vec3;
 use super::render::LoadedScene;
 use ember::scene::{LoadOptions, Material, Model, Scene, Texels};
 
-
 #[derive(Args)]
 pub struct CompareArgs {
     /// The image to judge.
@@ -73,8 +72,10 @@ pub fn compare(args: CompareArgs) -> Result<()> {
 
 #[derive(Args)]
 pub struct InfoArgs {
-    /// An OBJ or a scene file (.toml): show what ember reads of it (triangles,
-    /// materials, emitters, vertex colours) and its warnings, instead of the build.
+    /// An OBJ or a scene file (.toml) to describe, instead of the build.
+    ///
+    /// What `ember render SCENE` would read of it: triangles, materials, emitters and
+    /// sky, textures, bounds, vertex colours, the camera as flags, and its warnings.
     scene: Option<PathBuf>,
     /// With a scene: refuse it as `ember render --strict` would.
     #[arg(long, requires = "scene")]
@@ -103,13 +104,16 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         eprintln!("warning: {warning}");
     }
     println!("{}: {}", path.display(), report.summary());
-    let placed = scene.instancing.as_ref().map_or(String::new(), |instancing| {
-        format!(
-            "; {} placements put {} triangles in the world",
-            instancing.instances.len(),
-            instancing.placed_triangles()
-        )
-    });
+    let placed = scene
+        .instancing
+        .as_ref()
+        .map_or(String::new(), |instancing| {
+            format!(
+                "; {} placements put {} triangles in the world",
+                instancing.instances.len(),
+                instancing.placed_triangles()
+            )
+        });
     let dropped = match report.degenerate_dropped {
         0 => String::new(),
         n => format!(", {n} degenerate dropped"),
@@ -163,11 +167,17 @@ fn print_materials(scene: &Scene) {
     };
     // The grey stand-in for faces without a material is listed only when used.
     let listed = scene.materials.iter().zip(&triangles);
-    for (m, count) in listed.filter(|(m, &n)| n > 0 || m.name != "default").take(shown) {
+    for (m, count) in listed
+        .filter(|(m, &n)| n > 0 || m.name != "default")
+        .take(shown)
+    {
         println!("  {:?}: {}; {count} triangles", m.name, describe(m));
     }
     if scene.materials.len() > shown {
-        println!("  ... and {} more (-v lists all)", scene.materials.len() - shown);
+        println!(
+            "  ... and {} more (-v lists all)",
+            scene.materials.len() - shown
+        );
     }
 }
 
@@ -198,7 +208,11 @@ fn describe(m: &Material) -> String {
         (maps.normal, "norm"),
         (m.opacity_map, "map_d"),
     ];
-    let present: Vec<&str> = named.iter().filter(|(t, _)| t.is_some()).map(|(_, n)| *n).collect();
+    let present: Vec<&str> = named
+        .iter()
+        .filter(|(t, _)| t.is_some())
+        .map(|(_, n)| *n)
+        .collect();
     if !present.is_empty() {
         s += &format!(", maps {}", present.join(" "));
     }

@@ -7,6 +7,8 @@ pub mod denoise;
 pub mod machine;
 pub mod merge;
 pub mod misc;
+#[cfg(test)]
+mod reference;
 pub mod render;
 pub mod scene_input;
 pub mod tev;

@@ -6,7 +6,6 @@ use std::path::Path;
 
 use anyhow::{bail, Result};
 
-
 /// What ember reads, for messages.
 pub const FORMATS: &str = "OBJ (.obj) and ember scene files (.toml)";
 

@@ -121,7 +121,8 @@ struct Viewer {
 impl Viewer {
     fn run(&self, images: Receiver<Image>) -> Result<(), String> {
         let mut stream = self.connect()?;
-        let gone = |e: std::io::Error| format!("the tev viewer at {} went away ({e})", self.address);
+        let gone =
+            |e: std::io::Error| format!("the tev viewer at {} went away ({e})", self.address);
         stream
             .write_all(&create_image(&self.name, self.width, self.height))
             .map_err(gone)?;
@@ -234,7 +235,14 @@ mod tests {
         assert_eq!((a.host.as_str(), a.port), ("localhost", 14158));
         let a = parse_address("[::1]:9000").unwrap();
         assert_eq!((a.host.as_str(), a.port), ("::1", 9000));
-        for bad in ["localhost", ":14158", "host:port", "host:70000", "host:0", ""] {
+        for bad in [
+            "localhost",
+            ":14158",
+            "host:port",
+            "host:70000",
+            "host:0",
+            "",
+        ] {
             let e = parse_address(bad).unwrap_err();
             assert!(e.contains("HOST:PORT"), "{bad}: {e}");
         }
@@ -251,10 +259,16 @@ mod tests {
         let packets = update_image("x", &image);
         // 3 tiles across, 2 down.
         assert_eq!(packets.len(), 6);
-        let values: usize = packets.iter().map(|p| p.len() - 4 - 2 - 2 - 4 - 6 - 16 - 48).sum();
+        let values: usize = packets
+            .iter()
+            .map(|p| p.len() - 4 - 2 - 2 - 4 - 6 - 16 - 48)
+            .sum();
         assert_eq!(values, (w * h * 3 * 4) as usize);
         for p in &packets {
-            assert_eq!(u32::from_le_bytes(p[..4].try_into().unwrap()) as usize, p.len());
+            assert_eq!(
+                u32::from_le_bytes(p[..4].try_into().unwrap()) as usize,
+                p.len()
+            );
         }
     }
 }

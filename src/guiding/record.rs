@@ -142,9 +142,16 @@ impl MixtureDraw {
     }
 }
 
-/// What a guided vertex tells its recorder about the draw, on request: the BSDF's
-/// value `f·cos` and density, and the normal its guide's density is folded about.
-pub type MixtureTerms = (Vec3, f32, Vec3);
+/// What a guided vertex tells its recorder about the draw, on request.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MixtureTerms {
+    /// The BSDF's value `f·cos` in the drawn direction.
+    pub bsdf_value: Vec3,
+    /// The BSDF's density of that direction.
+    pub bsdf_pdf: f32,
+    /// The normal the guide's density is folded about.
+    pub normal: Vec3,
+}
 
 /// What the path tracer tells a recorder as a path unfolds.
 pub trait PathRecorder {
@@ -401,13 +408,15 @@ impl PathRecorder for PathRecords<'_> {
                     value,
                     direct,
                     sky: match v.mixture {
-                        Some((f, _, _)) => channel_mean(f * v.sky) / v.pdf,
+                        Some(terms) => channel_mean(terms.bsdf_value * v.sky) / v.pdf,
                         None => 0.0,
                     },
                     shadow: Shadow::Untested,
                 });
-                if let Some((f, bsdf_pdf, normal)) = v.mixture {
-                    let m = MixtureDraw::new(f * v.radiance, bsdf_pdf, 1.0, v.pdf, normal);
+                if let Some(terms) = v.mixture {
+                    let f = terms.bsdf_value;
+                    let m =
+                        MixtureDraw::new(f * v.radiance, terms.bsdf_pdf, 1.0, v.pdf, terms.normal);
                     self.draw(v.p, v.dir, Draw::Scattered(m));
                 }
             }
@@ -490,7 +499,13 @@ mod tests {
         recorder.added(Vec3::ONE);
         // `b` scatters with density 0.25 and `f·cos` 0.5, and its ray meets the sky,
         // 3 times `b`'s throughput of 0.25.
-        let terms = || Some((Vec3::splat(0.5), 0.25, nb));
+        let terms = || {
+            Some(MixtureTerms {
+                bsdf_value: Vec3::splat(0.5),
+                bsdf_pdf: 0.25,
+                normal: nb,
+            })
+        };
         recorder.scattered(b, nb, Vec3::Y, 0.25, Vec3::splat(0.25), terms);
         recorder.met_sky(Vec3::splat(0.75));
         recorder.finish();

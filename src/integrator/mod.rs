@@ -769,7 +769,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission,
             eta: 1.0,
             traced: None,
-            mixture: Some((value, bsdf_pdf, guide.normal())),
+            mixture: Some(MixtureTerms {
+                bsdf_value: value,
+                bsdf_pdf,
+                normal: guide.normal(),
+            }),
         })
     }
 
@@ -900,7 +904,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             emission: EmissionWeight::Full,
             eta: 1.0,
             traced: Some(next),
-            mixture: guide.map(|guide| (value, book, guide.normal())),
+            mixture: guide.map(|guide| MixtureTerms {
+                bsdf_value: value,
+                bsdf_pdf: book,
+                normal: guide.normal(),
+            }),
         })
     }
 

@@ -167,80 +167,91 @@ impl SceneFile {
             .into_iter()
             .map(|(name, table)| (name, settings(table)))
             .collect();
-        let folder = path.parent().unwrap_or(Path::new("")).to_owned();
         for entry in document.obj {
-            let span = entry.span();
-            let entry = entry.into_inner();
-            let Some(file_name) = &entry.file else {
-                return Err(file.error(span, "obj", "an [[obj]] needs file = \"PATH.obj\""));
-            };
-            if let Some(obj) = &entry.obj {
-                return Err(file.error(
-                    obj.span(),
-                    "obj.obj",
-                    "an [[obj]] names its file; `obj =` belongs to an [[instance]]",
-                ));
-            }
-            let name = entry.name.as_ref().map_or_else(
-                || {
-                    Path::new(file_name.get_ref())
-                        .file_stem()
-                        .map_or(String::new(), |s| s.to_string_lossy().into_owned())
-                },
-                |n| n.get_ref().clone(),
-            );
-            if let Some(other) = file.objs.iter().find(|o| o.name == name) {
-                let at = entry.name.as_ref().map_or(file_name.span(), Spanned::span);
-                let message = format!(
-                    "a second OBJ named {name:?} (the first is {}): give each a distinct name",
-                    other.path.display()
-                );
-                return Err(file.error(at, "obj.name", &message));
-            }
-            let transform = file.transform(&entry, "obj")?;
-            file.placements.push(Placed {
-                obj: file.objs.len(),
-                transform,
-            });
-            file.objs.push(ObjFile {
-                name,
-                path: folder.join(file_name.get_ref()),
-                span: file_name.span(),
-            });
+            file.add_obj(entry)?;
         }
         for entry in document.instance {
-            let span = entry.span();
-            let entry = entry.into_inner();
-            if let Some(f) = entry.file.as_ref().or(entry.name.as_ref()) {
-                return Err(file.error(
-                    f.span(),
-                    "instance",
-                    "an [[instance]] places an [[obj]] by its name: obj = \"NAME\"",
-                ));
-            }
-            let Some(of) = &entry.obj else {
-                return Err(file.error(
-                    span,
-                    "instance",
-                    "an [[instance]] needs obj = \"NAME\" of an [[obj]]",
-                ));
-            };
-            let Some(obj) = file.objs.iter().position(|o| &o.name == of.get_ref()) else {
-                let names: Vec<&str> = file.objs.iter().map(|o| o.name.as_str()).collect();
-                let message = format!(
-                    "no [[obj]] is named {:?} (there are: {})",
-                    of.get_ref(),
-                    names.join(", ")
-                );
-                return Err(file.error(of.span(), "instance.obj", &message));
-            };
-            let transform = file.transform(&entry, "instance")?;
-            file.placements.push(Placed { obj, transform });
+            file.add_instance(entry)?;
         }
         if file.objs.is_empty() {
             return Err(file.error(0..0, "obj", "the scene has no [[obj]] to render"));
         }
         Ok(file)
+    }
+
+    /// An `[[obj]]`: the OBJ, loaded once, and its placement.
+    fn add_obj(&mut self, entry: Spanned<Entry>) -> Result<(), SceneFileError> {
+        let span = entry.span();
+        let entry = entry.into_inner();
+        let Some(file_name) = &entry.file else {
+            return Err(self.error(span, "obj", "an [[obj]] needs file = \"PATH.obj\""));
+        };
+        if let Some(obj) = &entry.obj {
+            return Err(self.error(
+                obj.span(),
+                "obj.obj",
+                "an [[obj]] names its file; `obj =` belongs to an [[instance]]",
+            ));
+        }
+        let name = entry.name.as_ref().map_or_else(
+            || {
+                Path::new(file_name.get_ref())
+                    .file_stem()
+                    .map_or(String::new(), |s| s.to_string_lossy().into_owned())
+            },
+            |n| n.get_ref().clone(),
+        );
+        if let Some(other) = self.objs.iter().find(|o| o.name == name) {
+            let at = entry.name.as_ref().map_or(file_name.span(), Spanned::span);
+            let message = format!(
+                "a second OBJ named {name:?} (the first is {}): give each a distinct name",
+                other.path.display()
+            );
+            return Err(self.error(at, "obj.name", &message));
+        }
+        let transform = self.transform(&entry, "obj")?;
+        self.placements.push(Placed {
+            obj: self.objs.len(),
+            transform,
+        });
+        self.objs.push(ObjFile {
+            name,
+            path: self.folder().join(file_name.get_ref()),
+            span: file_name.span(),
+        });
+        Ok(())
+    }
+
+    /// An `[[instance]]`: another placement of an `[[obj]]` named before it.
+    fn add_instance(&mut self, entry: Spanned<Entry>) -> Result<(), SceneFileError> {
+        let span = entry.span();
+        let entry = entry.into_inner();
+        if let Some(f) = entry.file.as_ref().or(entry.name.as_ref()) {
+            return Err(self.error(
+                f.span(),
+                "instance",
+                "an [[instance]] places an [[obj]] by its name: obj = \"NAME\"",
+            ));
+        }
+        let Some(of) = &entry.obj else {
+            return Err(self.error(
+                span,
+                "instance",
+                "an [[instance]] needs obj = \"NAME\" of an [[obj]]",
+            ));
+        };
+        let Some(obj) = self.objs.iter().position(|o| &o.name == of.get_ref()) else {
+            let names: Vec<&str> = self.objs.iter().map(|o| o.name.as_str()).collect();
+            let message = format!(
+                "no [[obj]] is named {:?} (there are: {})",
+                of.get_ref(),
+                names.join(", ")
+            );
+            return Err(self.error(of.span(), "instance.obj", &message));
+        };
+        let transform = self.transform(&entry, "instance")?;
+        self.placements.push(Placed { obj, transform });
+        Ok(())
     }
 
     /// The one-line error at byte range `span` of the file, about `key`.

@@ -1,10 +1,10 @@
 //! A renderable scene: one triangle mesh, its materials and textures, and the list of
 //! emissive triangles. Immutable once built.
 
-mod alpha;
 mod asset_paths;
 mod camera;
 mod compose;
+mod cutout;
 mod environment;
 mod file;
 mod instances;
@@ -15,15 +15,15 @@ mod normal_maps;
 mod obj;
 mod obj_parallel;
 mod obj_text;
-mod opacity;
+mod opacity_map;
 mod tangents;
-mod texture;
-mod textures;
+mod texture_files;
+mod texture_image;
 mod warnings;
 
-pub use alpha::AlphaMap;
 pub use camera::{Camera, CameraSettings, Lens};
 pub use compose::{compose, mirrors, Placement};
+pub use cutout::{coin, Opacity, PartOpacity};
 pub use environment::{Environment, SkySample};
 pub use file::{ObjFile, Placed, SceneFile, SceneFileError, Setting};
 pub use instances::{place, Instancing, MeshPart};
@@ -38,9 +38,9 @@ pub use obj::{
 };
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
-pub use opacity::{coin, Opacity, PartOpacity};
+pub use opacity_map::AlphaMap;
 pub use tangents::mikktspace_tangents;
-pub use texture::{Texels, Texture, TextureKind};
+pub use texture_image::{Texels, Texture, TextureKind};
 pub use warnings::LoadOptions;
 
 use glam::{Vec2, Vec3, Vec4};

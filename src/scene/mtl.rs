@@ -15,7 +15,7 @@
 //! - A value that does not read is an error naming its line, the material and what was
 //!   expected. Numbers must be finite.
 
-use super::textures::parse_statement;
+use super::texture_files::parse_statement;
 
 /// What a library defines, and what the user should hear about it.
 #[derive(Debug, Default)]

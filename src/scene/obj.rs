@@ -18,7 +18,7 @@ use glam::{Vec2, Vec3};
 use super::asset_paths;
 use super::mtl::{self, parse_mtl};
 use super::obj_text::{argument, pad_vertex_colours, strip_comments};
-use super::textures::{Referrer, TextureLoader};
+use super::texture_files::{Referrer, TextureLoader};
 use super::warnings::{LoadOptions, Warnings};
 use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, TriangleMesh};
 

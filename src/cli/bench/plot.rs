@@ -48,7 +48,8 @@ fn draw_mesh(
     rows: &[&Measurement],
     machine: &str,
 ) -> Result<(), DrawingAreaErrorKind<std::io::Error>> {
-    let traversal = |m: &&&Measurement| matches!(m.mode, Mode::Primary | Mode::Diffuse | Mode::Shadow);
+    let traversal =
+        |m: &&&Measurement| matches!(m.mode, Mode::Primary | Mode::Diffuse | Mode::Shadow);
     let mut series: Vec<(&str, Api)> = Vec::new();
     let mut groups: Vec<(Mode, usize)> = Vec::new();
     for m in rows.iter().filter(traversal) {
@@ -68,7 +69,10 @@ fn draw_mesh(
         .max(1e-3)
         // Room above the tallest bar for the legend.
         * 1.45;
-    let caption = format!("{mesh}, {} triangles: Mrays/s (higher is faster)", rows[0].triangles);
+    let caption = format!(
+        "{mesh}, {} triangles: Mrays/s (higher is faster)",
+        rows[0].triangles
+    );
     let mut chart = ChartBuilder::on(panel)
         .caption(caption, ("sans-serif", 18))
         .margin(12)
@@ -98,14 +102,17 @@ fn draw_mesh(
     let width = 0.8 / series.len().max(1) as f64;
     for (k, &(backend, api)) in series.iter().enumerate() {
         let colour = COLOURS[k % COLOURS.len()];
-        let bars = groups.iter().enumerate().filter_map(|(g, &(mode, threads))| {
-            let m = rows.iter().find(|m| {
-                m.backend == backend && m.api == api && m.mode == mode && m.threads == threads
-            })?;
-            let x0 = g as f64 + 0.1 + k as f64 * width;
-            let rect = [(x0, 0.0), (x0 + width * 0.92, m.mrays_per_s?)];
-            Some(Rectangle::new(rect, colour.filled()))
-        });
+        let bars = groups
+            .iter()
+            .enumerate()
+            .filter_map(|(g, &(mode, threads))| {
+                let m = rows.iter().find(|m| {
+                    m.backend == backend && m.api == api && m.mode == mode && m.threads == threads
+                })?;
+                let x0 = g as f64 + 0.1 + k as f64 * width;
+                let rect = [(x0, 0.0), (x0 + width * 0.92, m.mrays_per_s?)];
+                Some(Rectangle::new(rect, colour.filled()))
+            });
         chart
             .draw_series(bars)?
             .label(format!("{backend} {}", api.as_str()))

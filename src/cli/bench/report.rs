@@ -273,7 +273,13 @@ impl MeshRows<'_> {
     fn vs_embree(&self, m: &Measurement) -> Option<f64> {
         match (m.build_ms, m.mrays_per_s) {
             (Some(ms), _) => {
-                let base = self.find("embree", Mode::Build, Api::Single, m.threads, Some("medium"));
+                let base = self.find(
+                    "embree",
+                    Mode::Build,
+                    Api::Single,
+                    m.threads,
+                    Some("medium"),
+                );
                 base.and_then(|b| b.build_ms).map(|b| b / ms)
             }
             (None, Some(rate)) if m.mode != Mode::CallOverhead => {
@@ -384,7 +390,12 @@ impl MeshRows<'_> {
     fn call_overhead(&self) -> String {
         let rates: Vec<String> = (self.0.iter())
             .filter(|m| m.mode == Mode::CallOverhead)
-            .filter_map(|m| Some(format!("{:.2} Mrays/s at {} thr", m.mrays_per_s?, m.threads)))
+            .filter_map(|m| {
+                Some(format!(
+                    "{:.2} Mrays/s at {} thr",
+                    m.mrays_per_s?, m.threads
+                ))
+            })
             .collect();
         match rates.is_empty() {
             true => String::new(),

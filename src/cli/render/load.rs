@@ -113,4 +113,3 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         camera,
     })
 }
-

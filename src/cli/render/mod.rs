@@ -152,7 +152,6 @@ fn render_instanced(
     }
 }
 
-
 /// When the render started, when its scene was loaded and when its first sample was
 /// taken: the summary tells the time to the first sample and how much was loading.
 #[derive(Clone, Copy)]

@@ -296,4 +296,3 @@ fn default_checkpoint(output: &Path) -> PathBuf {
     name.push(".checkpoint");
     PathBuf::from(name)
 }
-

@@ -240,7 +240,9 @@ pub fn report_finished(
 /// How a render ended, for its JSON summary.
 pub enum Outcome<'a> {
     /// The image (or shard) is written; `checkpoint` is the checkpoint left beside it.
-    Finished { checkpoint: Option<&'a std::path::Path> },
+    Finished {
+        checkpoint: Option<&'a std::path::Path>,
+    },
     /// Stopped by `signal`: the partial image (not for a shard) and the checkpoint.
     Interrupted { signal: usize },
 }
@@ -262,7 +264,9 @@ pub fn summary_json(
         Outcome::Interrupted { signal } => (
             false,
             Some(super::super::signal_name(signal)),
-            plan.shard.is_none().then(|| path(&partial_output(&plan.output))),
+            plan.shard
+                .is_none()
+                .then(|| path(&partial_output(&plan.output))),
             Some(path(&plan.checkpoint)),
         ),
     };

@@ -17,8 +17,8 @@ use super::super::verbosity;
 use super::load::LoadedScene;
 use super::plan::{partial_output, RenderPlan};
 use super::report::{
-    report_finished, report_interrupted, report_loading, report_start, spp_summary,
-    summary_json, Outcome,
+    report_finished, report_interrupted, report_loading, report_start, spp_summary, summary_json,
+    Outcome,
 };
 use super::Timeline;
 use ember::accel::Accel;
@@ -27,9 +27,7 @@ use ember::film::output::FilmOutput;
 use ember::film::Film;
 use ember::guiding::SdTree;
 use ember::image;
-use ember::render::{
-    self, Checkpointing, GuideView, PassReport, RenderControl, RenderStats,
-};
+use ember::render::{self, Checkpointing, GuideView, PassReport, RenderControl, RenderStats};
 
 /// Renders with checkpoints and signal handling, then writes the image or shard (or,
 /// when interrupted, the partial image and a checkpoint).
@@ -61,7 +59,12 @@ pub fn finish_render<A: Accel>(
     let display = plan.display.clone().map(|address| {
         let name = plan.output.file_name().unwrap_or_default();
         let s = &plan.settings;
-        Display::start(address, name.to_string_lossy().into_owned(), s.width, s.height)
+        Display::start(
+            address,
+            name.to_string_lossy().into_owned(),
+            s.width,
+            s.height,
+        )
     });
     let snapshots = Snapshots::new(plan.checkpoint_every, display.is_some());
     let periodic = |film: &Film| {
@@ -157,7 +160,10 @@ fn write_finished<'p>(
             }
         }
     }
-    let kept = plan.checkpoint_every.is_some().then_some(plan.checkpoint.as_path());
+    let kept = plan
+        .checkpoint_every
+        .is_some()
+        .then_some(plan.checkpoint.as_path());
     if let (Some(path), true) = (kept, verbosity::status()) {
         eprintln!(
             "kept the checkpoint {} (--resume with a higher --spp refines the image; \
@@ -199,7 +205,10 @@ impl Snapshots {
         let (Some(checkpoint), Some(every)) = (self.checkpoint_every, self.every) else {
             return false;
         };
-        let mut last = self.last_checkpoint.lock().unwrap_or_else(|p| p.into_inner());
+        let mut last = self
+            .last_checkpoint
+            .lock()
+            .unwrap_or_else(|p| p.into_inner());
         if last.elapsed() + every / 2 >= checkpoint {
             *last = Instant::now();
             return true;
@@ -361,4 +370,3 @@ fn render_with_progress<A: Accel>(
     let view = view.into_inner().unwrap_or_else(|p| p.into_inner());
     (film, stats, report, view)
 }
-
