@@ -35,8 +35,8 @@ struct Cli {
     /// Say less: warnings and errors only (no progress bar, no summary).
     #[arg(short, long, global = true, conflicts_with = "verbose")]
     quiet: bool,
-    /// Say more: the settings ember chose (camera, light sampler, threads) and the
-    /// time of each stage.
+    /// Say more: the details (the camera even when given, every material in `info`,
+    /// the files a finished resume removed).
     #[arg(short, long, global = true)]
     verbose: bool,
     #[command(subcommand)]

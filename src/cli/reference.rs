@@ -26,7 +26,9 @@ fn generate() -> Vec<(PathBuf, String)> {
         commands.push((sub.clone(), format!("ember-{}", sub.get_name())));
     }
     for (command, name) in commands {
-        let man = clap_mangen::Man::new(command.name(name.clone())).manual("ember manual");
+        // clap names commands with `&'static str` (without its `string` feature).
+        let static_name: &'static str = Box::leak(name.clone().into_boxed_str());
+        let man = clap_mangen::Man::new(command.name(static_name)).manual("ember manual");
         let mut page = Vec::new();
         man.render(&mut page).expect("rendering to memory");
         let page = String::from_utf8(page).expect("man pages are UTF-8");
@@ -90,7 +92,7 @@ fn command_section(s: &mut String, command: &Command, name: &str) {
         }
     }
     if let Some(after) = command.get_after_long_help() {
-        let _ = writeln!(s, "{after}\n");
+        let _ = writeln!(s, "```text\n{after}\n```\n");
     }
 }
 

@@ -53,10 +53,11 @@ use crate::geometry::Hit;
 /// Why a scene could not be loaded. Each message is one line that names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    #[error("cannot read {path}: {source}")]
+    // The reason is part of the line, not a `source`: `{:#}` would print it twice.
+    #[error("cannot read {path}: {reason}")]
     Io {
         path: PathBuf,
-        source: std::io::Error,
+        reason: std::io::Error,
     },
     #[error("{path} is a directory, not an OBJ file")]
     IsDirectory { path: PathBuf },

@@ -317,9 +317,9 @@ pub fn load_obj_with(
     path: &Path,
     options: &LoadOptions,
 ) -> Result<(Scene, LoadReport), SceneError> {
-    let io = |source| SceneError::Io {
+    let io = |reason| SceneError::Io {
         path: path.to_owned(),
-        source,
+        reason,
     };
     let meta = std::fs::metadata(path).map_err(io)?;
     if meta.is_dir() {
