@@ -12,9 +12,8 @@
 //! crate 2.5.1's safe API cannot express it: a filter's colour input is always set, and
 //! its `clean_aux(true)` sets a parameter named `clean_aux`, which OIDN ignores ("unknown
 //! filter parameter" with OIDN_VERBOSE=2; the parameter is `cleanAux`). Measured through
-//! OIDN's C API in a throwaway test (256x256, 16 spp, relMSE against the shipped
-//! references), the recipe did not pay on the Cornell boxes: Original 3.0e-4 against
-//! 2.65e-4 with the passes as they are, GlossyMix 1.04e-3 against 1.075e-3.
+//! OIDN's C API, the recipe did not pay on the Cornell boxes
+//! (benches/results/2026-12-01-denoising.md).
 //!
 //! Without the `denoise` feature ember has no OIDN, and every call here says how to get
 //! it.

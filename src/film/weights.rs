@@ -5,9 +5,9 @@
 //! A guided render's first `2^N − 1` samples per pixel are training's, drawn with guides
 //! learnt from one, two, four, … samples per pixel (the first unguided), and the rest
 //! with the final guide. Each sample is an unbiased estimate of the pixel, but not an
-//! equally good one: on Cornell GlossyMix a training sample carries 3.2–3.5× the
-//! variance of a final-guide one, on the Original about 1.3× (as estimated below; README,
-//! "Path guiding"). Two independent unbiased means, `m_t` of `n_t` training samples and `m_f` of `n_f`
+//! equally good one: a training sample carries several times the variance of a
+//! final-guide one on glossy scenes (benches/results/2026-12-03-guiding-sittings-1-to-9.md).
+//! Two independent unbiased means, `m_t` of `n_t` training samples and `m_f` of `n_f`
 //! final ones, combine with the least variance as
 //!
 //! ```text

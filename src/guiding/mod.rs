@@ -79,9 +79,8 @@ impl Guiding {
     /// the most iterations whose samples are at most an eighth of the render's
     /// (`8 · (2^N − 1) ≤ spp`), at least one: 3 at 64 spp, 5 at 256, 7 at 1024. A
     /// training sample costs about twice a rendered one, and the guide learnt from
-    /// more of them pays less than it costs: the grey-white room at 64 spp (one
-    /// thread, seeds 11 and 12) rendered 1.3–1.5× as efficiently with 3 iterations
-    /// as with 5 (README, "Path guiding").
+    /// more of them pays less than it costs: three iterations beat five on the room at
+    /// 64 spp (benches/results/2026-12-02-guiding-sd-tree-1-to-8.md).
     pub fn for_spp(spp: u32) -> Guiding {
         let fits = |n: u32| 8 * ((1u64 << n) - 1) <= u64::from(spp);
         let iterations = (1..=MAX_ITERATIONS).take_while(|&n| fits(n)).last();

@@ -29,8 +29,7 @@ pub const SUBDIVISION_SHARE: f64 = 0.01;
 
 /// One node as sampling and the density read it, in 16 bytes (half the 32 it took
 /// with `u32` children and `f32` factors, for memory: it did not make descents
-/// faster, see the README): its quadrants' children (`x ≥ ½` is bit 0 of a
-/// quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being nobody's
+/// faster, benches/results/2026-12-03-guiding-sittings-1-to-9.md): its quadrants' children/// quadrant, `y ≥ ½` bit 1; child 0: the quadrant is a leaf, the root being nobody's
 /// child; a tree has at most [`max_nodes`](QuadTree::max_nodes) nodes, so 16 bits
 /// index them), and each quadrant's weight, its share of the node's energy in units
 /// of `1 / WEIGHT_SUM`, fixed when the tree is built by [`QuadTree::refined`].
@@ -725,8 +724,8 @@ mod tests {
     /// into an empty quadrant), and a draw lies in the cell it reports, whose density
     /// is the one `square_pdf` finds there: a tree whose light comes from two points
     /// only, refined to depth 20, so most nodes have empty quadrants, some a whole
-    /// empty column or row. (Until 2026-12-03 a draw at a cell's upper edge could
-    /// round into its neighbour, of density 0 here: `(0, 0.49999997)` did.)
+    /// empty column or row. (A draw at a cell's upper edge once rounded into its
+    /// neighbour, of density 0 here: `(0, 0.49999997)` did.)
     #[test]
     fn draws_never_land_where_the_density_is_zero() {
         let mut tree = QuadTree::uniform();

@@ -13,11 +13,9 @@
 //! from above, which a diffuse surface turns to almost nothing; `L·|cos|` is the
 //! integrand of every diffuse vertex up to its albedo, and it stays a distribution
 //! the quadtree holds exactly. The full `f·cos·L` is not shared: a glossy lobe
-//! follows each vertex's own `wo`. Per sample against the same renders learning `L`
-//! (2026-12-04, paired seeds): room 1.2–3.3% lower relMSE (seeds 11–14), staircase
-//! 3.8%, 13.5% and 5.0% lower and 3.5% higher, Cornell Original 5.4% and GlossyMix
-//! 8–10% (seeds 11, 12); `f·cos·L` gave GlossyMix 12% but the room −1.3% and +3.3%
-//! and the Original 1% (README, "An eleventh sitting").
+//! follows each vertex's own `wo`. Per sample, learning `L·|cos|` beat learning `L`
+//! on every scene measured, and `f·cos·L` only on GlossyMix
+//! (benches/results/2026-12-04-guiding-sittings-10-to-13.md).
 
 use glam::Vec3;
 

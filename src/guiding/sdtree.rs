@@ -72,19 +72,9 @@ pub const SPLIT_REFERENCE_PIXELS: u64 = 1280 * 720;
 /// The records above which a leaf is split after an iteration of `spp` samples per
 /// pixel over `pixels` pixels: `c · √spp · √(pixels / SPLIT_REFERENCE_PIXELS)`.
 ///
-/// Why the square root: a region's quadtree is only as good as the records it learns
-/// from, and the tree only as fine as its regions. A fixed `c` ties the number of
-/// regions to the image's size (at 160×90 a whole room gets about 70, each spanning
-/// surfaces that face different ways); `c` scaled by the pixels keeps their number
-/// (the room filled all 2048 leaves [`MAX_SPATIAL_NODES`] allows, each from under a
-/// thousand records of the last iteration). The square root trades the two: the room
-/// at 160×90, 5 iterations and 64 spp (relMSE against its 4096-spp reference, seeds 11
-/// and 12) gave 7.75e-2 and 8.02e-2 scaled by the pixels (2048 leaves), 6.62e-2 and
-/// 6.86e-2 by their square root (560 leaves), 8.80e-2 with `c` fixed (66 leaves). The
-/// Cornell boxes at 512² (3 iterations) lose 3–6% (Original) and 10–15% (GlossyMix)
-/// per sample, but their smaller trees cost less: at equal time GlossyMix went from
-/// 0.79× unguided's efficiency with the pixels to 0.80–0.82× with their square root,
-/// the room from 0.79× to 0.94× (`benches/guiding_efficiency.sh`, one sitting).
+/// Why the square root: a fixed `c` ties the regions' number to the image's size, and
+/// `c` scaled by the pixels leaves each region too few records; the square root was
+/// best on the room and at equal time (benches/results/2026-12-02-guiding-sd-tree-1-to-8.md).
 pub fn split_threshold(spp: u32, pixels: u64) -> f64 {
     let scale = (pixels.max(1) as f64 / SPLIT_REFERENCE_PIXELS as f64).sqrt();
     SPLIT_RECORDS_PER_SQRT_SPP * f64::from(spp.max(1)).sqrt() * scale
@@ -597,7 +587,8 @@ impl SdTree {
     /// Why the new guide: the draws were made with the iteration's guide, learnt from
     /// half as many samples; judged by that one, which concentrates less light, the
     /// moments were biased against guiding, and `sd-tree 7` left regions unguided
-    /// that its better guide would have paid in (GlossyMix lost most: see the README).
+    /// that its better guide would have paid in (GlossyMix lost most:
+    /// benches/results/2026-12-02-guiding-sd-tree-1-to-8.md).
     ///
     /// Each leaf also keeps its records' [`incident_estimate`], for adjoint-driven
     /// roulette (see `crate::integrator`).
@@ -699,14 +690,9 @@ fn incident_estimate(leaf: &Leaf) -> f32 {
 
 /// The share of an emitter's direct light a region's guide learns where a share
 /// `visibility` of its light samples find their emitter: `(1 − visibility)²`, all of
-/// it where they are all blocked, none where none is. Why squared: per sample against
-/// `1 − visibility` and `(1 − visibility)⁴` (2026-12-04; the boxes 512² at 64 spp,
-/// seeds 11 and 12; the staircase 72×128 at 256 spp, seeds 11–14), the Cornell
-/// Original's relMSE was 7.85e-4 and 7.76e-4 against 8.03e-4 and 8.03e-4, and 7.86e-4
-/// and 7.88e-4; GlossyMix's 3.89e-3 and 4.02e-3 against 3.86e-3 and 3.77e-3, and
-/// 3.93e-3 and 4.00e-3; the staircase's 2.18e-3 on average against 2.25e-3 and 2.21e-3
-/// (learning all of it, as before: Original 9.16e-4, GlossyMix 4.65e-3, staircase
-/// 2.29e-3; none of it: staircase 2.23e-3).
+/// it where they are all blocked, none where none is. Why squared: per sample it was
+/// as good as or better than `1 − visibility`, `(1 − visibility)⁴`, all or none, on the
+/// Cornell boxes and the staircase (benches/results/2026-12-04-guiding-sittings-10-to-13.md).
 fn direct_share(visibility: f32) -> f32 {
     (1.0 - visibility) * (1.0 - visibility)
 }

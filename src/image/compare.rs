@@ -1,5 +1,5 @@
 //! How far an image is from a reference: MSE, relative MSE and PSNR over all pixels
-//! and channels of linear RGB (the metrics of `shared/references/cornell-box/README.md`).
+//! and channels of linear RGB (the metrics of the Cornell references' README).
 
 use super::Image;
 

@@ -18,7 +18,7 @@ use glam::Vec3;
 use super::{Image, ImageFileError};
 use crate::io::{self, WriteError};
 
-/// The layer and channel names ember writes (README, "Multi-layer EXR").
+/// The layer and channel names ember writes (docs/guide.md, "Passes, denoising, …").
 pub mod names {
     /// The main image: the final (denoised, if asked) radiance, as plain `R,G,B`.
     pub const MAIN: &str = "";

@@ -82,10 +82,8 @@ pub struct RayCount {
 ///
 /// Why 6 (as Mitsuba's default): roulette trades variance for time, and starting it
 /// early is a bad trade on interiors, where every bounce loses only part of the
-/// light. Cornell boxes at depth 8 and 64 spp (relMSE; instructions per sample):
-/// starting at vertex 4 gave Original 1.35e-3 and GlossyMix 2.00e-2; at 6, 1.12e-3
-/// (−17%) and 1.54e-2 (−23%) for 19% more instructions; without roulette, 1.08e-3
-/// and 1.40e-2 for 27% more.
+/// light: on the Cornell boxes starting at 6 rather than 4 lowered the error by about a
+/// fifth for a fifth more instructions (benches/results/2026-11-30-speed-against-mitsuba.md).
 pub const ROULETTE_START_VERTEX: u32 = 6;
 
 /// A path tracer over one scene and one accelerator; generic so that ray queries are
@@ -736,8 +734,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         // One 2-D draw, as an unguided step's: its first number chooses the guide or
         // the BSDF and is stretched back to uniform within the choice. A coin of its
         // own moved the direction's pair off the dimensions the unguided step reads,
-        // out of the first vertex's stratified (Sobol) set: the Cornell Original with
-        // every region unguided lost 12% in relMSE against unguided `mis`.
+        // out of the first vertex's stratified (Sobol) set, and cost an unguided
+        // region the stratification's gain.
         let (mut u1, u2) = rng.pair();
         let from_guide = !choose_second(&mut u1, guide.selection());
         let (wi, value, bsdf_pdf, guide_pdf) = if from_guide {

@@ -18,10 +18,8 @@
 //! estimate, and a path is halved only until it carries a sixth of its pixel again; but
 //! where the guide saw next to no light the estimate stays near 0 whatever the weight,
 //! so a path is halved at most [`MAX_HALVINGS`] times, and the ordinary roulette
-//! decides after that. Without that bound, one staircase render in six (seed 15) had a
-//! firefly that held 41% of its error in 9 pixels (relMSE 3.88e-3 against 2.24–2.51e-3
-//! for the other seeds); with it, seeds 11–16 gave 2.31–2.43e-3 and the room's error
-//! did not grow.
+//! decides after that. Without that bound, a rare firefly held much of a staircase
+//! render's error (benches/results/2026-12-03-guiding-sittings-1-to-9.md).
 //!
 //! Training's iterations after the first play it too, with the tree of the iteration
 //! before (a record divides what its path found by the path's throughput, so it stays
@@ -30,17 +28,15 @@
 //! Why a fixed survival probability, where Vorba and Křivánek survive with the ratio
 //! over the window's centre: the guide's estimate is coarse (a region's average, over
 //! directions and surfaces), and where it says dark wrongly, a survival of 0.05 makes
-//! a path that finds light twenty times too bright. Measured on the grey-white room
-//! and the staircase (160×90 and 72×128, 256 spp, seeds 11 and 12; rays traced in
-//! millions times relMSE in units of 1e-2 and 1e-3, lower is better; README, "Path
-//! guiding"): with ordinary roulette 74 and 54; surviving with the ratio over a centre
-//! three times the threshold, 45–50 on the room but 59–73 on the staircase, whose
-//! fireflies raised one seed's error by half; a survival of ½ below a sixth, 49 and 48.
+//! a path that finds light twenty times too bright; a fixed survival was the only
+//! rule that helped on both the room and the staircase
+//! (benches/results/2026-12-03-guiding-sittings-1-to-9.md).
 //!
 //! Why no splitting, the method's other half: splitting a path into `n` branches where
 //! its estimate is above its pixel's (each branch its own stream and `1/n` of the
-//! weight, at most 16 branches a camera sample) lowered the room's product by 4–5%,
-//! and the staircase's and the Original's not at all, for a path loop that recurses.
+//! weight, at most 16 branches a camera sample) gained little on the room and nothing
+//! elsewhere, for a path loop that recurses
+//! (benches/results/2026-12-03-guiding-sittings-1-to-9.md).
 
 use crate::color::channel_mean;
 

@@ -51,21 +51,9 @@ pub trait SkyGuide {
 ///
 /// The default, [`Auto`](LightSamplerKind::Auto), is the light BVH in scenes of at
 /// least [`BVH_MIN_EMITTERS`] emissive triangles and version 10's alias table below,
-/// so that the BVH is used only where it was measured no less efficient (issue 20;
-/// CPU time of alternating one-thread runs, relMSE against references at equal spp):
-/// - the Cornell boxes and the staircase (2 emitters): the BVH's choice between two
-///   triangles buys nothing, and the solid-angle rule that comes with it cost 7–9%
-///   efficiency on the Cornell boxes and 1–3% on the staircase for no gain in error;
-/// - the Cornell box with its light cut into 288 triangles: relMSE 1.09× lower but
-///   0.70× the efficiency (one cluster of lights: the tree only adds cost);
-/// - `meshes/many-lights.obj` (512 small lights over the whole ceiling): relMSE 1.62×
-///   lower, efficiency 0.98× (1.03× before the plane tests; within the noise of the
-///   runs);
-/// - `meshes/many-light-room.obj` (1942, its ceiling lamps facing down since
-///   lights3): relMSE 10.6× lower, efficiency 6.3× (three rounds, 160×90, 64 spp,
-///   depth 8), and for the direct light alone (depth 2) relMSE 47× lower, efficiency
-///   26×. (With the ceiling lamps facing the ceiling, most of the light came through
-///   5 mm gaps, and the BVH measured 1.78× lower relMSE, efficiency 0.94–1.04×.)
+/// so that the BVH is used only where it was measured no less efficient: with a few
+/// emitters its choice buys nothing and costs time; with hundreds spread through a
+/// scene it lowers the error many times over (benches/results/2026-12-02-light-sampling.md).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSamplerKind {
     /// [`Bvh`](Self::Bvh) with at least [`BVH_MIN_EMITTERS`] emitters, else

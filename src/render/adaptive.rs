@@ -10,11 +10,8 @@
 //! pass, so it is the same at any thread count and after a resume.
 //!
 //! Stopping on a pixel's own samples is not quite unbiased: a pixel stops a little
-//! more often when its samples happen to be low. On GlossyMix at 128² and T = 0.15
-//! (its caustics are rare, bright paths) the image mean was 0.7% low with these rules
-//! (1.0% with a 3×3 neighbourhood, 2.0% with 3×3 and 16 samples first), while its
-//! relMSE was 1.9× lower than uniform sampling's at the same samples; the bias falls
-//! with T and with `min_spp`.
+//! more often when its samples happen to be low; the bias is small and falls with T
+//! and with `min_spp` (benches/results/2026-12-01-time-to-a-clean-image.md).
 
 use crate::film::PixelSums;
 

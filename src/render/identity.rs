@@ -14,10 +14,17 @@ use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels}
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
-/// (10: the native BVH's 8-wide nodes, whose traversal order may settle a tie between
-/// equally near triangles differently. The default light sampler is still version
-/// 10's; the others are told apart by the identity's `light-sampler` entry.)
+/// CHANGELOG.md names each version and what it changed.
 pub const ALGORITHM_VERSION: u32 = 10;
+
+/// The guide's version, by which CHANGELOG.md names it ("The guide (`sd-tree N`)").
+pub const GUIDE_VERSION: &str = "sd-tree 13";
+
+/// The identity's `guiding` entry of [`GUIDE_VERSION`]: kept as version 13 first wrote
+/// it, so that guided checkpoints and shards made since resume and merge. The words
+/// after the version list what it computes; CHANGELOG.md explains each change. A new
+/// version is written as `sd-tree N` alone.
+const GUIDE_IDENTITY: &str = "sd-tree 13 (emitters' direct light learnt as far as their light samples are blocked, records times the cosine at their vertex, sky samples following a quadtree of the sky seen directly, adjoint-driven roulette, 16-bit quadrant weights, training samples in the render's own sequences, shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image)";
 
 /// The identity's entry of a guided render's training iterations.
 pub const GUIDING_ITERATIONS: &str = "guiding-iterations";
@@ -99,10 +106,7 @@ pub fn identity(
     // checkpoint (see `GUIDING_ITERATIONS`).
     let guiding = settings.guiding.into_iter().flat_map(|g| {
         [
-            (
-                "guiding",
-                "sd-tree 13 (emitters' direct light learnt as far as their light samples are blocked, records times the cosine at their vertex, sky samples following a quadtree of the sky seen directly, adjoint-driven roulette, 16-bit quadrant weights, training samples in the render's own sequences, shares learnt against the guide they will be used with, per region after splitting, regions unguided where guiding does not pay, split by records per square root of pixels, azimuth by polynomial, jitter-filtered in space, box-filtered in direction, folded, learnt selection, guided sky samples with a learnt share, training samples in the image)".to_owned(),
-            ),
+            ("guiding", GUIDE_IDENTITY.to_owned()),
             (GUIDING_ITERATIONS, g.iterations.to_string()),
         ]
     });
@@ -297,4 +301,18 @@ pub fn scene_hash(scene: &Scene) -> u64 {
         }
     }
     h.0.digest()
+}
+
+#[cfg(test)]
+mod guide_identity_tests {
+    use super::*;
+
+    #[test]
+    fn the_guide_identity_is_its_version_and_keeps_version_13s_text() {
+        assert!(GUIDE_IDENTITY.starts_with(&format!("{GUIDE_VERSION} (")));
+        // Guided checkpoints made by version 13 carry this text; changing it would make
+        // them unresumable without a rule to accept the old text.
+        assert_eq!(GUIDE_IDENTITY.len(), 629);
+        assert!(GUIDE_IDENTITY.ends_with(", training samples in the image)"));
+    }
 }

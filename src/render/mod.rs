@@ -17,7 +17,7 @@ mod training;
 
 pub use adaptive::Adaptive;
 pub use guide_view::{guide_view, GuidePicture, GuideView};
-pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDING_ITERATIONS};
+pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDE_VERSION, GUIDING_ITERATIONS};
 pub use probe::{probe_camera, CameraProbe};
 pub use training::train_guide;
 

@@ -2,7 +2,7 @@
 //!
 //! How MTL statements map to a material: the first rule that applies, with
 //! `α = sqrt(2 / (Ns + 2))` (`Ns` absent counts as 0). The reference images depend on
-//! this table; `README.md` repeats it.
+//! this table; docs/guide.md repeats it.
 //!
 //! | rule | material |
 //! |---|---|

@@ -313,6 +313,7 @@ pub fn summary_json(
             "build_seconds": stats.light_build_seconds,
         })),
         "guiding": stats.guiding.map(|g| json!({
+            "version": ember::render::GUIDE_VERSION,
             "seconds": g.seconds,
             "training_samples": g.training_samples,
             "film_samples": g.film_samples,
