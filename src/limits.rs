@@ -54,6 +54,20 @@ pub fn peak_resident_bytes() -> Option<u64> {
     parse_status_peak(&status)
 }
 
+/// The resident memory of this process now (`VmRSS`), in bytes; `None` off Linux.
+pub fn resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let (kib, unit) = proc_field(&status, "VmRSS:")?;
+    (unit == Some("kB")).then(|| kib.checked_mul(1024))?
+}
+
+/// Starts [`peak_resident_bytes`] again from the resident memory of now (Linux's
+/// `/proc/self/clear_refs`), so that the peak of one stage of work can be measured.
+/// Whether it could.
+pub fn reset_peak_resident() -> bool {
+    std::fs::write("/proc/self/clear_refs", "5").is_ok()
+}
+
 /// The `VmHWM:` line of `/proc/self/status` text, in bytes.
 pub fn parse_status_peak(status: &str) -> Option<u64> {
     let (kib, unit) = proc_field(status, "VmHWM:")?;

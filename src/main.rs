@@ -8,6 +8,23 @@
 //! - `EMBER_EMBREE_MEMORY_LIMIT=BYTES`: caps what Embree may allocate; a scene build
 //!   that needs more fails with Embree's out-of-memory error.
 
+// The binary's own printing macros, in place of `std`'s (which panic when the write
+// fails): see `cli::console`. Defined before `mod cli` so that every module uses them.
+macro_rules! println {
+    () => { $crate::cli::console::write($crate::cli::console::Stream::Out, format_args!(""), true) };
+    ($($arg:tt)*) => { $crate::cli::console::write($crate::cli::console::Stream::Out, format_args!($($arg)*), true) };
+}
+macro_rules! print {
+    ($($arg:tt)*) => { $crate::cli::console::write($crate::cli::console::Stream::Out, format_args!($($arg)*), false) };
+}
+macro_rules! eprintln {
+    () => { $crate::cli::console::write($crate::cli::console::Stream::Err, format_args!(""), true) };
+    ($($arg:tt)*) => { $crate::cli::console::write($crate::cli::console::Stream::Err, format_args!($($arg)*), true) };
+}
+macro_rules! eprint {
+    ($($arg:tt)*) => { $crate::cli::console::write($crate::cli::console::Stream::Err, format_args!($($arg)*), false) };
+}
+
 mod cli;
 
 use std::process::ExitCode;

@@ -1,10 +1,30 @@
-//! Scene files are untrusted input: text made of scene-file pieces (tables, keys, values
-//! of the right and wrong types, broken syntax, stray bytes) never panics the reader or
-//! the loader, and every error is one line `FILE:LINE:COLUMN: KEY: ...` inside the file.
+//! Fuzzing scene files on the stable toolchain (proptest): text made of scene-file
+//! pieces (tables, every key of `[render]`, `[environment]` and `[camera.NAME]`, the
+//! entries' transforms with values at the edge of `f32`, values of every TOML type,
+//! broken syntax, stray bytes).
+//!
+//! What must hold: the reader and the loader never panic, and every error is one line
+//! `FILE:LINE:COLUMN: KEY: ...` inside the file; a scene that loads is placed within
+//! what rays can carry, and renders on both backends (Embree must not abort on a ray
+//! an instance takes past its limit). One input in eight also goes through `ember
+//! render` (the settings are checked there, as its flags): it renders, or fails with
+//! one `error:` line and exit status 1, and leaves no image.
+//!
+//! `EMBER_FUZZ_SECONDS=N` runs for N seconds and prints how many inputs were tried;
+//! `EMBER_FUZZ_BIN=PATH` runs that `ember` instead of this build's (a copy, so that a
+//! long run goes on while the tree is rebuilt).
 
-use std::path::Path;
+mod common;
 
-use ember::scene::SceneFile;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+use ember::accel::{instanced_bvh, instanced_embree, Accel};
+use ember::embree::{BuildQuality, Device};
+use ember::integrator::IntegratorKind;
+use ember::render::{self, RenderSettings};
+use ember::scene::{CameraSettings, Scene, SceneFile};
 use proptest::prelude::*;
 
 fn cornell() -> String {
@@ -12,28 +32,91 @@ fn cornell() -> String {
     format!("{:?}", path.to_str().unwrap())
 }
 
-fn piece() -> impl Strategy<Value = String> {
-    let obj = cornell();
-    let number = prop_oneof![
+fn number() -> impl Strategy<Value = String> + Clone {
+    prop_oneof![
         Just("0".to_string()),
         Just("-1.5".to_string()),
         Just("1e30".to_string()),
+        Just("1e-19".to_string()),
+        Just("1e-12".to_string()),
+        Just("1e17".to_string()),
+        Just("3.4e38".to_string()),
+        Just("-0.0".to_string()),
         Just("nan".to_string()),
         Just("inf".to_string()),
+        Just("4".to_string()),
+        Just("100000".to_string()),
         (-5.0f32..5.0).prop_map(|v| format!("{v:?}")),
-    ];
-    let vec3 = (number.clone(), number.clone(), number.clone())
-        .prop_map(|(a, b, c)| format!("[{a}, {b}, {c}]"));
-    let row = (
-        number.clone(),
-        number.clone(),
-        number.clone(),
-        number.clone(),
-    )
+    ]
+}
+
+/// A value of any TOML type, as a setting's key may be (wrongly) given.
+fn value() -> impl Strategy<Value = String> + Clone {
+    let vec3 = (number(), number(), number()).prop_map(|(a, b, c)| format!("[{a}, {b}, {c}]"));
+    prop_oneof![
+        Just("true".to_string()),
+        Just("false".to_string()),
+        number(),
+        vec3,
+        Just("[1, 2]".to_string()),
+        Just("[]".to_string()),
+        Just("\"mis\"".to_string()),
+        Just("\"albedo\"".to_string()),
+        Just("[\"albedo\", \"normal\", \"albedo\"]".to_string()),
+        Just("\"a\"".to_string()),
+        Just("\"none.exr\"".to_string()),
+        Just("{ a = 1 }".to_string()),
+        Just("1979-05-27".to_string()),
+    ]
+}
+
+/// Keys of every table, a few that belong elsewhere or nowhere.
+const KEYS: [&str; 34] = [
+    "spp",
+    "width",
+    "height",
+    "integrator",
+    "denoise",
+    "guiding",
+    "guiding-iterations",
+    "noise-threshold",
+    "min-spp",
+    "time-limit",
+    "aov",
+    "max-depth",
+    "seed",
+    "threads",
+    "light-sampler",
+    "accel",
+    "tonemap",
+    "exposure",
+    "camera",
+    "guide-image",
+    "guide-pixel",
+    "guide-sky",
+    "checkpoint-every",
+    "output",
+    "shard",
+    "background",
+    "env",
+    "env-scale",
+    "env-rotate",
+    "eye",
+    "look-at",
+    "up",
+    "fov",
+    "zoom",
+];
+
+fn piece() -> impl Strategy<Value = String> {
+    let obj = cornell();
+    let vec3 = (number(), number(), number()).prop_map(|(a, b, c)| format!("[{a}, {b}, {c}]"));
+    let row = (number(), number(), number(), number())
         .prop_map(|(a, b, c, d)| format!("[{a}, {b}, {c}, {d}]"));
     let matrix = prop::collection::vec(row, 0..6).prop_map(|rows| rows.join(", "));
     prop_oneof![
         Just("[[obj]]\n".to_string()),
+        Just("[[instance]]\nobj = \"box\"\n".to_string()),
         Just("[[instance]]\n".to_string()),
         Just("[render]\n".to_string()),
         Just("[environment]\n".to_string()),
@@ -45,14 +128,10 @@ fn piece() -> impl Strategy<Value = String> {
         Just("obj = \"box\"\n".to_string()),
         vec3.clone().prop_map(|v| format!("translate = {v}\n")),
         vec3.clone().prop_map(|v| format!("scale = {v}\n")),
-        number.clone().prop_map(|v| format!("scale = {v}\n")),
-        (vec3.clone(), number.clone())
-            .prop_map(|(a, d)| format!("rotate = {{ axis = {a}, degrees = {d} }}\n")),
+        number().prop_map(|v| format!("scale = {v}\n")),
+        (vec3, number()).prop_map(|(a, d)| format!("rotate = {{ axis = {a}, degrees = {d} }}\n")),
         matrix.prop_map(|m| format!("matrix = [{m}]\n")),
-        vec3.clone().prop_map(|v| format!("eye = {v}\n")),
-        number.clone().prop_map(|v| format!("spp = {v}\n")),
-        number.prop_map(|v| format!("fov = {v}\n")),
-        Just("camera = \"a\"\n".to_string()),
+        (prop::sample::select(&KEYS[..]), value()).prop_map(|(k, v)| format!("{k} = {v}\n")),
         Just("translate = \"far\"\n".to_string()),
         Just("[[obj\n".to_string()),
         Just("= 3\n".to_string()),
@@ -61,35 +140,145 @@ fn piece() -> impl Strategy<Value = String> {
     ]
 }
 
-proptest! {
-    #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+#[derive(Debug)]
+struct Input {
+    text: String,
+    /// Also run `ember render` on it.
+    cli: bool,
+}
 
-    #[test]
-    fn scene_files_never_panic_and_errors_are_one_line(
-        start_valid in any::<bool>(),
-        pieces in prop::collection::vec(piece(), 0..12),
-    ) {
-        // Half the files start as a valid scene, so that the loader and the transforms
-        // are reached too, not only the reader's errors.
-        let start = if start_valid { format!("[[obj]]\nfile = {}\nname = \"box\"\n", cornell()) } else { String::new() };
-        let text: String = start + &pieces.concat();
-        let lines = text.lines().count().max(1);
-        let path = Path::new("fuzz.toml");
-        let check = |e: &ember::scene::SceneFileError| {
-            let line = e.to_string();
-            assert!(!line.contains('\n'), "{line:?}");
-            assert!(line.starts_with("fuzz.toml:"), "{line:?}");
-            assert!(e.line >= 1 && e.line <= lines + 1 && e.column >= 1, "{line:?} in\n{text}");
-        };
-        match SceneFile::parse(path, text.clone()) {
-            Err(e) => check(&e),
-            Ok(file) => match file.load_scene(&Default::default()) {
-                Err(e) => check(&e),
-                Ok((scene, _)) => {
-                    let (lo, hi) = scene.bounds();
-                    assert!(lo.is_finite() && hi.is_finite(), "{text}");
-                }
-            },
-        }
+fn input() -> impl Strategy<Value = Input> {
+    (any::<bool>(), prop::collection::vec(piece(), 0..14), 0u8..8).prop_map(
+        |(start_valid, pieces, cli)| {
+            // Half the files start as a valid scene, so that the loader, the transforms
+            // and the settings are reached too, not only the reader's errors.
+            let start = if start_valid {
+                format!("[[obj]]\nfile = {}\nname = \"box\"\n", cornell())
+            } else {
+                String::new()
+            };
+            Input {
+                text: start + &pieces.concat(),
+                cli: cli == 0,
+            }
+        },
+    )
+}
+
+fn device() -> &'static Device {
+    static DEVICE: OnceLock<Device> = OnceLock::new();
+    DEVICE.get_or_init(|| Device::new("threads=1").expect("Embree device"))
+}
+
+/// Renders 4x4 pixels at 1 sample through the framing camera on `accel`.
+fn render_on<A: Accel>(scene: &Scene, accel: &A) -> Result<(), TestCaseError> {
+    let (lo, hi) = scene.bounds();
+    let camera = CameraSettings::framing(lo, hi, 40.0);
+    if camera.validate().is_err() {
+        return Ok(());
     }
+    let settings = RenderSettings {
+        width: 4,
+        height: 4,
+        spp: 1,
+        max_depth: 3,
+        seed: 1,
+        integrator: IntegratorKind::Bsdf,
+        light_sampler: Default::default(),
+        adaptive: None,
+        guiding: None,
+    };
+    let (image, _) = render::render(scene, accel, &camera.camera(4, 4), &settings, &|_| {});
+    prop_assert!(image.pixels.iter().all(|p| p.is_finite()));
+    Ok(())
+}
+
+/// An instanced scene on both backends; a plain one on Embree (as the other fuzz
+/// targets do).
+fn render_both(scene: &Scene) -> Result<(), TestCaseError> {
+    let Some(instancing) = &scene.instancing else {
+        return common::fuzz::render_tiny(scene).map(drop);
+    };
+    let embree = instanced_embree(device(), &scene.mesh, instancing, BuildQuality::Low, None)
+        .map_err(|e| TestCaseError::fail(format!("Embree build failed: {e}")))?;
+    render_on(scene, &embree)?;
+    let bvh = instanced_bvh(&scene.mesh, instancing)
+        .map_err(|e| TestCaseError::fail(format!("BVH build failed: {e}")))?;
+    render_on(scene, &bvh)
+}
+
+fn check_error(e: &ember::scene::SceneFileError, text: &str) -> Result<(), TestCaseError> {
+    let line = e.to_string();
+    let lines = text.lines().count().max(1);
+    prop_assert!(!line.contains('\n'), "{line:?}");
+    prop_assert!(line.starts_with("fuzz.toml:"), "{line:?}");
+    prop_assert!(
+        e.line >= 1 && e.line <= lines + 1 && e.column >= 1,
+        "{line:?} in\n{text}"
+    );
+    Ok(())
+}
+
+/// `ember render` of the file in a fresh folder: an image, or one error line, exit
+/// status 1 and no image.
+fn check_cli(text: &str) -> Result<(), TestCaseError> {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("fuzz.toml"), text).unwrap();
+    let ember =
+        std::env::var_os("EMBER_FUZZ_BIN").unwrap_or_else(|| env!("CARGO_BIN_EXE_ember").into());
+    let out = Command::new(ember)
+        .args([
+            "render",
+            "fuzz.toml",
+            "-o",
+            "out.png",
+            "--width",
+            "4",
+            "--height",
+            "4",
+        ])
+        .args(["--spp", "1", "--max-depth", "2", "--threads", "1"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let made: Vec<PathBuf> = std::fs::read_dir(dir.path())
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.file_name().unwrap() != "fuzz.toml")
+        .collect();
+    if out.status.success() {
+        prop_assert!(dir.path().join("out.png").is_file(), "{stderr}\n{text}");
+        return Ok(());
+    }
+    prop_assert_eq!(out.status.code(), Some(1), "{}\n{}", stderr, text);
+    let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
+    prop_assert_eq!(lines.len(), 1, "one error line: {}\n{}", stderr, text);
+    prop_assert!(lines[0].starts_with("error: "), "{}\n{}", stderr, text);
+    prop_assert!(made.is_empty(), "left {:?}: {}\n{}", made, stderr, text);
+    Ok(())
+}
+
+fn check(input: &Input) -> Result<bool, TestCaseError> {
+    let text = &input.text;
+    if input.cli {
+        check_cli(text)?;
+    }
+    let file = match SceneFile::parse(Path::new("fuzz.toml"), text.clone()) {
+        Ok(file) => file,
+        Err(e) => return check_error(&e, text).map(|()| false),
+    };
+    let (scene, _) = match file.load_scene(&Default::default()) {
+        Ok(loaded) => loaded,
+        Err(e) => return check_error(&e, text).map(|()| false),
+    };
+    let (lo, hi) = scene.bounds();
+    prop_assert!(lo.is_finite() && hi.is_finite(), "{}", text);
+    render_both(&scene)?;
+    Ok(true)
+}
+
+#[test]
+fn fuzz_scene_file() {
+    common::fuzz::run("fuzz_scene_file", "loaded and rendered", input(), check);
 }

@@ -400,12 +400,13 @@ fn a_texture_larger_than_memory_is_refused_naming_its_size() {
             "-o",
             out.to_str().unwrap(),
         ],
-        // Room for the scene and the image, not for the decoded texture and its copy,
-        // counted at the 12 bytes per texel of a floating-point one: 34.3 MiB.
+        // Room for the scene and the image, not for the decoded texture (9 MB), the
+        // decoder's working copy and allowance (9 MB and 4 MiB) and its copy at the
+        // 12 bytes per texel of a floating-point one (36 MB): 55.5 MiB.
         &[("EMBER_MEMORY_LIMIT", "20000000")],
     ));
     assert!(
-        line.contains("big.png") && line.contains("a 2000x1500 texture needs 34.3 MiB"),
+        line.contains("big.png") && line.contains("a 2000x1500 texture needs 55.5 MiB"),
         "{line}"
     );
 }

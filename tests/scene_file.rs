@@ -119,11 +119,30 @@ fn environment_paths_are_relative_to_the_scene_file() {
 
 /// Renders the scene file `text` in a fresh folder and checks the failure: one line,
 /// `error: scene.toml:LINE:COLUMN: KEY: ...`, a non-zero exit, no image left.
-fn assert_file_error(text: &str, (line, column): (usize, usize), key: &str, words: &str) {
+fn assert_file_error(text: &str, at: (usize, usize), key: &str, words: &str) {
+    assert_file_error_with(text, &[], at, key, words)
+}
+
+/// [`assert_file_error`] with `extra` flags on the command line.
+fn assert_file_error_with(
+    text: &str,
+    extra: &[&str],
+    (line, column): (usize, usize),
+    key: &str,
+    words: &str,
+) {
     let dir = tempfile::tempdir().unwrap();
     std::fs::write(dir.path().join("scene.toml"), text).unwrap();
+    // A map for the command line's --env (`env.exr`), made beside the file.
+    let map = ember::image::Image {
+        width: 4,
+        height: 2,
+        pixels: vec![glam::Vec3::ONE; 8],
+    };
+    map.save(&dir.path().join("env.exr")).unwrap();
     let mut args = vec!["render", "scene.toml", "-o", "out.png"];
     args.extend(SMALL);
+    args.extend(extra);
     let out = ember(&args, dir.path());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "{text}: {stderr}");
@@ -160,7 +179,7 @@ fn every_scene_file_error_is_one_line_with_file_line_column_and_key() {
         (format!("[render]\nspp = \"many\"\n[[obj]]\n{obj}"), (2, 1), "render.spp", "many"),
         (format!("[render]\nwidht = 3\n[[obj]]\n{obj}"), (2, 1), "render.widht", "unknown setting"),
         (format!("[render]\noutput = \"x.png\"\n[[obj]]\n{obj}"), (2, 1), "render.output", "command line"),
-        (format!("[camera.a]\neye = [0, 1]\n[[obj]]\n{obj}"), (2, 1), "camera.a.eye", "three numbers"),
+        (format!("[camera.a]\neye = [0, 1]\n[[obj]]\n{obj}"), (2, 1), "camera.a.eye", "a list of 3 numbers, not a list of 2"),
         (format!("[camera.a]\nzoom = 2\n[[obj]]\n{obj}"), (2, 1), "camera.a.zoom", "unknown key"),
         (format!("[environment]\nenv = \"none.exr\"\n[[obj]]\n{obj}"), (2, 1), "environment.env", "none.exr"),
         // Transforms.
@@ -184,6 +203,163 @@ fn every_scene_file_error_is_one_line_with_file_line_column_and_key() {
     ];
     for (text, at, key, words) in cases {
         assert_file_error(&text, at, key, words);
+    }
+}
+
+/// Issue 48, class 3: every table is strict whether this run uses it or not (an
+/// `[environment]` the command line's `--env` replaces, a camera not rendered); a
+/// value must be of its flag's type (`spp = false` is no longer dropped); and the
+/// errors that come from several settings together (a companion missing, a
+/// conflict), a negative background and an unknown `[render] camera` are located too.
+#[test]
+fn settings_are_strict_in_every_table_and_located() {
+    let obj = repo().join("meshes/CornellBox-Original.obj");
+    let obj = format!("[[obj]]\nfile = {:?}\n", obj.to_str().unwrap());
+    let env = ["--env", "env.exr"];
+    // (file, command-line flags, line and column, key, words of the error)
+    type Case<'a> = (String, &'a [&'a str], (usize, usize), &'a str, &'a str);
+    let cases: Vec<Case> = vec![
+        // Unknown keys where this run would not look.
+        (
+            format!("[environment]\nbackgrond = [1, 1, 1]\n{obj}"),
+            &env,
+            (2, 1),
+            "environment.backgrond",
+            "unknown key",
+        ),
+        (
+            format!("[render]\ncamera = \"a\"\n[camera.a]\nfov = 30\n[camera.b]\nzoom = 2\n{obj}"),
+            &[],
+            (6, 1),
+            "camera.b.zoom",
+            "unknown key",
+        ),
+        (
+            format!("[camera.b]\nfov = \"wide\"\n{obj}"),
+            &["--camera", "b"],
+            (2, 1),
+            "camera.b.fov",
+            "a number",
+        ),
+        // Values of the wrong type, `false` on a key that is not a switch among them.
+        (
+            format!("[render]\nspp = false\n{obj}"),
+            &[],
+            (2, 1),
+            "render.spp",
+            "takes a number, not false",
+        ),
+        (
+            format!("[render]\nseed = true\n{obj}"),
+            &[],
+            (2, 1),
+            "render.seed",
+            "not true",
+        ),
+        (
+            format!("[render]\ndenoise = 1\n{obj}"),
+            &[],
+            (2, 1),
+            "render.denoise",
+            "true or false",
+        ),
+        (
+            format!("[render]\nintegrator = 3\n{obj}"),
+            &[],
+            (2, 1),
+            "render.integrator",
+            "a string",
+        ),
+        (
+            format!("[render]\naov = [\"albedo\", 3]\n{obj}"),
+            &[],
+            (2, 1),
+            "render.aov",
+            "a name",
+        ),
+        (
+            format!("[environment]\nbackground = \"1,1,1\"\n{obj}"),
+            &[],
+            (2, 1),
+            "environment.background",
+            "a list of 3 numbers",
+        ),
+        // Settings that need a companion, or conflict.
+        (
+            format!("[environment]\nenv-scale = 2\n{obj}"),
+            &[],
+            (2, 1),
+            "environment.env-scale",
+            "needs `env`",
+        ),
+        (
+            format!("[render]\nmin-spp = 4\n{obj}"),
+            &[],
+            (2, 1),
+            "render.min-spp",
+            "needs `noise-threshold`",
+        ),
+        (
+            format!("[render]\nguiding-iterations = 2\n{obj}"),
+            &[],
+            (2, 1),
+            "render.guiding-iterations",
+            "needs `guiding`",
+        ),
+        (
+            format!("[environment]\nbackground = [1, 1, 1]\nenv = \"env.exr\"\n{obj}"),
+            &[],
+            (3, 1),
+            "environment.env",
+            "cannot be given with `background`",
+        ),
+        // A negative sky, an unknown camera, cameras to choose from.
+        (
+            format!("[environment]\nbackground = [1, -1, 1]\n{obj}"),
+            &[],
+            (2, 1),
+            "environment.background",
+            "negative",
+        ),
+        (
+            format!("[render]\ncamera = \"top\"\n{obj}"),
+            &[],
+            (2, 1),
+            "render.camera",
+            "no camera \"top\"",
+        ),
+        (
+            format!("[camera.a]\nfov = 30\n[camera.b]\nfov = 40\n{obj}"),
+            &[],
+            (1, 1),
+            "render.camera",
+            "choose one",
+        ),
+    ];
+    for (text, extra, at, key, words) in cases {
+        assert_file_error_with(&text, extra, at, key, words);
+    }
+    // What the command line gives a companion or a choice for renders.
+    let dir = tempfile::tempdir().unwrap();
+    let map = ember::image::Image {
+        width: 4,
+        height: 2,
+        pixels: vec![glam::Vec3::ONE; 8],
+    };
+    map.save(&dir.path().join("env.exr")).unwrap();
+    for (text, extra) in [
+        (format!("[environment]\nenv-scale = 2\n{obj}"), &env[..]),
+        (
+            format!("[render]\nmin-spp = 4\n{obj}"),
+            &["--noise-threshold", "0.5"][..],
+        ),
+        (format!("[render]\nguiding = false\n{obj}"), &[][..]),
+    ] {
+        std::fs::write(dir.path().join("scene.toml"), &text).unwrap();
+        let mut args = vec!["render", "scene.toml", "-o", "out.png"];
+        args.extend(SMALL);
+        args.extend(extra);
+        ok(&ember(&args, dir.path()));
     }
 }
 

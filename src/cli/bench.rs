@@ -85,6 +85,14 @@ pub struct BenchArgs {
     plot: Option<PathBuf>,
 }
 
+/// Refuses to benchmark a mesh of `triangles` with `rays` per set that does not fit in
+/// memory, before it is made.
+fn check_memory(mesh: &str, triangles: u64, rays: u64) -> Result<()> {
+    let needed = procedural::bench_memory_bytes(triangles, rays);
+    let what = format!("benchmarking {mesh} ({triangles} triangles, {rays} rays per set)");
+    ember::limits::check_fits(&what, needed).map_err(anyhow::Error::msg)
+}
+
 /// Seconds each measurement repeats for: 0 (one run) to an hour.
 fn parse_min_time(s: &str) -> Result<f64, String> {
     match s.trim().parse::<f64>() {
@@ -102,6 +110,12 @@ pub fn run(args: BenchArgs) -> Result<()> {
     // Fail on an impossible output before spending minutes measuring.
     if let Some(path) = &args.json_out {
         io::check_writable(path)?;
+        let meshes: Vec<(&str, &Path)> = args
+            .meshes
+            .iter()
+            .map(|p| ("the mesh", p.as_path()))
+            .collect();
+        super::check_distinct_files(&[("--json-out", path)], &meshes)?;
     }
     if let Some(path) = &args.plot {
         if !path
@@ -147,6 +161,7 @@ pub fn run(args: BenchArgs) -> Result<()> {
             Source::Obj(path) => {
                 let start = Instant::now();
                 let mesh = BenchMesh::from_obj(path)?;
+                check_memory(&mesh.name, mesh.triangles().len() as u64, args.rays)?;
                 loadings.push(Loading {
                     mesh: mesh.name.clone(),
                     file_bytes: mesh.obj_bytes,
@@ -154,7 +169,10 @@ pub fn run(args: BenchArgs) -> Result<()> {
                 });
                 mesh
             }
-            Source::Procedural(p) => BenchMesh::procedural(p, args.seed),
+            Source::Procedural(p) => {
+                check_memory(&p.to_string(), p.most_triangles(), args.rays)?;
+                BenchMesh::procedural(p, args.seed)
+            }
         };
         options.camera = match (args.eye, args.look_at) {
             (None, None) => None,

@@ -34,8 +34,24 @@ pub struct DenoiseArgs {
 
 pub fn run(args: DenoiseArgs) -> Result<()> {
     image::check_output(&args.output)?;
+    super::check_distinct_files(
+        &[("the output", &args.output)],
+        &[("the input", &args.input)],
+    )?;
     denoise::available()?;
     let start = Instant::now();
+    let exr = OutputFormat::from_path(&args.output)? == OutputFormat::Exr;
+    let size = LayeredImage::exr_size(&args.input)?;
+    ember::limits::check_fits(
+        &format!(
+            "denoising {} (a {}x{} EXR)",
+            args.input.display(),
+            size.width,
+            size.height
+        ),
+        memory_bytes(&size, exr),
+    )
+    .map_err(anyhow::Error::msg)?;
     let input = LayeredImage::read_exr(&args.input)?;
     let color = layer(&input, &args.input, names::MAIN, names::RGB)?;
     let aux = if args.no_aux {
@@ -50,7 +66,7 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
     let denoised = denoise::denoise(&color, aux.as_ref().map(|(a, n)| (a, n)))
         .map_err(|e| anyhow!("{}: {e}", args.input.display()))?;
     let filter_seconds = filter_start.elapsed().as_secs_f64();
-    if OutputFormat::from_path(&args.output)? == OutputFormat::Exr {
+    if exr {
         let mut output = input;
         output.set(Layer::from_image(names::NOISY, names::RGB, &color));
         output.set(Layer::main(&denoised));
@@ -59,9 +75,10 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
         denoised.save_with(&args.output, &args.tone.into())?;
     }
     let seconds = start.elapsed().as_secs_f64();
+    let peak = ember::limits::peak_resident_bytes();
     if super::verbosity::status() {
         eprintln!(
-            "denoised {} ({}x{}, {}) into {} in {seconds:.2} s ({filter_seconds:.2} s in OIDN)",
+            "denoised {} ({}x{}, {}) into {} in {seconds:.2} s ({filter_seconds:.2} s in OIDN){}",
             args.input.display(),
             color.width,
             color.height,
@@ -71,6 +88,10 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
                 "colour only"
             },
             args.output.display(),
+            peak.map_or(String::new(), |bytes| format!(
+                ", peak memory {}",
+                ember::limits::human_bytes(bytes)
+            )),
         );
     }
     if args.json {
@@ -82,9 +103,22 @@ pub fn run(args: DenoiseArgs) -> Result<()> {
             "guided_by_albedo_and_normal": aux.is_some(),
             "seconds": seconds,
             "filter_seconds": filter_seconds,
+            // What the memory check before reading is measured against.
+            "peak_resident_bytes": peak,
         }));
     }
     Ok(())
+}
+
+/// Bytes of memory denoising the EXR of `size` holds at its peak: reading it, the
+/// denoiser with its images ([`denoise::memory_bytes`]), and an EXR output's channels
+/// (the input's and the noisy image's) as samples and compressed.
+fn memory_bytes(size: &ember::image::ExrSize, exr_output: bool) -> u64 {
+    let pixels = u64::from(size.width) * u64::from(size.height);
+    let output_channels = if exr_output { size.channels + 3 } else { 1 };
+    size.read_bytes
+        .saturating_add(denoise::memory_bytes(size.width, size.height))
+        .saturating_add(pixels.saturating_mul(output_channels).saturating_mul(8))
 }
 
 /// The three-channel layer `name` of the input, or one line saying what is missing.

@@ -40,8 +40,23 @@ pub struct MergeArgs {
 
 pub fn run(args: MergeArgs) -> Result<ExitCode> {
     super::check_image_output(&args.output, &args.aov, args.denoise)?;
+    let shards: Vec<(&str, &std::path::Path)> = args
+        .shards
+        .iter()
+        .map(|p| ("the shard", p.as_path()))
+        .collect();
+    super::check_distinct_files(&[("the merged image", &args.output)], &shards)?;
     let start = Instant::now();
     let (film, report) = merge::merge(&args.shards, args.allow_partial)?;
+    let output = FilmOutput {
+        aovs: &args.aov,
+        denoise: args.denoise,
+        tonemap: &args.tone.into(),
+    };
+    // A signal now would cut the write short and leave its temporary file: it waits.
+    let stop = super::stop_on_signals()?;
+    output.write(&film, &args.output)?;
+    // After the write, which refuses a film with a pixel no shard sampled.
     for range in &report.missing {
         eprintln!(
             "warning: no shard holds samples {}..{} of 0..{}: the image has fewer samples",
@@ -54,14 +69,6 @@ pub fn run(args: MergeArgs) -> Result<ExitCode> {
             path.display()
         );
     }
-    let output = FilmOutput {
-        aovs: &args.aov,
-        denoise: args.denoise,
-        tonemap: &args.tone.into(),
-    };
-    // A signal now would cut the write short and leave its temporary file: it waits.
-    let stop = super::stop_on_signals()?;
-    output.write(&film, &args.output)?;
     let seconds = start.elapsed().as_secs_f64();
     if super::verbosity::status() {
         eprintln!(

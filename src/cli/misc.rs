@@ -33,8 +33,7 @@ pub struct CompareArgs {
 }
 
 pub fn compare(args: CompareArgs) -> Result<()> {
-    let mut image = Image::load(&args.image)?;
-    let reference = Image::load(&args.reference)?;
+    let (mut image, reference) = Image::load_pair(&args.image, &args.reference)?;
     if let Some(factor) = args.downsample {
         image = image::downsampled(&image, factor).ok_or_else(|| {
             anyhow::anyhow!(

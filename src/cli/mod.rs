@@ -3,6 +3,7 @@
 //! stays out of the library.
 
 pub mod bench;
+pub mod console;
 pub mod denoise;
 pub mod machine;
 pub mod merge;
@@ -58,6 +59,40 @@ pub fn signal_name(signal: usize) -> &'static str {
     } else {
         "SIGINT"
     }
+}
+
+/// Refuses, before any work, a run whose outputs name one file twice or name one of
+/// its inputs, under whatever names (`./out.png`, `sub/../out.png`, a link): each is
+/// `(what, path)`, as `("--checkpoint", "ck")`. Outputs that do not exist yet are
+/// compared by their canonical folder and name ([`ember::io::same_file`]).
+pub fn check_distinct_files(
+    outputs: &[(&str, &std::path::Path)],
+    inputs: &[(&str, &std::path::Path)],
+) -> Result<()> {
+    use ember::io::file_identity;
+    let identities: Vec<_> = outputs.iter().map(|(_, p)| file_identity(p)).collect();
+    for (i, (what, path)) in outputs.iter().enumerate() {
+        for (j, (other, other_path)) in outputs.iter().enumerate().take(i) {
+            if identities[i].same(&identities[j]) {
+                anyhow::bail!(
+                    "{what} {} would overwrite {other} {} (the same file)",
+                    path.display(),
+                    other_path.display()
+                );
+            }
+        }
+        for (input, input_path) in inputs {
+            if identities[i].same(&file_identity(input_path)) {
+                anyhow::bail!(
+                    "{what} {} would overwrite {input} {} (the same file): ember does not \
+                     overwrite what it reads",
+                    path.display(),
+                    input_path.display()
+                );
+            }
+        }
+    }
+    Ok(())
 }
 
 /// `--accel`: which structure answers the ray queries.

@@ -49,6 +49,12 @@ impl Device {
         scene.bytes = self.bytes_in_use().saturating_sub(before)
             + meshes.iter().map(Scene::memory_bytes).sum::<usize>();
         scene.placed = meshes;
+        // A ray that one of the instances would take past Embree's limit in its object
+        // space is a miss, as a ray past the limit in the world is.
+        scene.carried = instances
+            .iter()
+            .map(Instance::carried)
+            .fold(scene.carried, |(o, d), (io, id)| (o.min(io), d.min(id)));
         Ok(scene)
     }
 

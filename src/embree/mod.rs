@@ -436,6 +436,7 @@ impl Device {
             bytes: 0,
             filter: None,
             placed: Vec::new(),
+            carried: (EMBREE_LARGE, EMBREE_LARGE),
             shared: PhantomData,
         };
         // SAFETY: `raw` is a live scene, not committed yet.
@@ -632,6 +633,10 @@ pub struct Scene<'m> {
     /// (see [`Device::build_instanced_scene`]): kept alive with their filters for as
     /// long as this scene can be queried, and released after it.
     placed: Vec<Scene<'m>>,
+    /// The largest origin and direction coordinates of a ray Embree accepts here: its
+    /// own limit, or less in a top-level scene whose instances would take a ray past
+    /// that limit in their object space (see `Instance::carried`).
+    carried: (f32, f32),
     /// The shared vertex and index arrays, borrowed for as long as the scene lives.
     shared: PhantomData<&'m [u8]>,
 }
@@ -650,7 +655,7 @@ impl Drop for Scene<'_> {
 }
 
 /// Embree's limit on ray origin and direction components (`FLT_LARGE` in its sources).
-const EMBREE_LARGE: f32 = 1.844e18;
+const EMBREE_LARGE: f32 = crate::geometry::MAX_RAY_COORDINATE;
 
 /// Whether Embree accepts the ray (its `RayK::valid()`): origin and direction components
 /// within ±1.844e18, and no NaN in `tnear`/`tfar`. Debian's Embree 3.13.5 is built with
@@ -659,8 +664,15 @@ const EMBREE_LARGE: f32 = 1.844e18;
 /// them: vertices near `f32::MAX`, or an `--eye` far outside the scene.
 #[inline]
 fn embree_accepts(ray: &Ray) -> bool {
-    let small = |v: glam::Vec3| v.abs().cmple(glam::Vec3::splat(EMBREE_LARGE)).all();
-    small(ray.origin) && small(ray.dir) && !ray.tmin.is_nan() && !ray.tmax.is_nan()
+    accepts_within(ray, (EMBREE_LARGE, EMBREE_LARGE))
+}
+
+/// Whether the ray's origin and direction components are within `(origin, dir)`, and
+/// its `tnear`/`tfar` are not NaN.
+#[inline]
+fn accepts_within(ray: &Ray, (origin, dir): (f32, f32)) -> bool {
+    let within = |v: glam::Vec3, limit: f32| v.abs().cmple(glam::Vec3::splat(limit)).all();
+    within(ray.origin, origin) && within(ray.dir, dir) && !ray.tmin.is_nan() && !ray.tmax.is_nan()
 }
 
 /// The ray in Embree's layout, written as three whole 16-byte rows. Embree reads the
@@ -744,7 +756,7 @@ impl Scene<'_> {
     /// Nearest hit of one ray.
     #[inline]
     pub fn intersect(&self, ray: &Ray) -> Option<Hit> {
-        if !embree_accepts(ray) {
+        if !accepts_within(ray, self.carried) {
             return None;
         }
         let mut rayhit = sys::RTCRayHit {
@@ -775,7 +787,7 @@ impl Scene<'_> {
     /// Whether anything blocks the ray segment.
     #[inline]
     pub fn occluded(&self, ray: &Ray) -> bool {
-        if !embree_accepts(ray) {
+        if !accepts_within(ray, self.carried) {
             return false;
         }
         let mut raw = raw_ray(ray);
@@ -804,7 +816,11 @@ impl Scene<'_> {
         let mut packet: sys::RTCRayHit8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
             // A ray Embree would reject stays inactive: a miss.
-            valid.0[lane] = if embree_accepts(ray) { -1 } else { 0 };
+            valid.0[lane] = if accepts_within(ray, self.carried) {
+                -1
+            } else {
+                0
+            };
             let (r, h) = (&mut packet.ray, &mut packet.hit);
             r.org_x[lane] = ray.origin.x;
             r.org_y[lane] = ray.origin.y;
@@ -850,7 +866,11 @@ impl Scene<'_> {
         let mut packet: sys::RTCRay8 = unsafe { std::mem::zeroed() };
         for (lane, ray) in rays.iter().enumerate() {
             // A ray Embree would reject stays inactive: not occluded.
-            valid.0[lane] = if embree_accepts(ray) { -1 } else { 0 };
+            valid.0[lane] = if accepts_within(ray, self.carried) {
+                -1
+            } else {
+                0
+            };
             packet.org_x[lane] = ray.origin.x;
             packet.org_y[lane] = ray.origin.y;
             packet.org_z[lane] = ray.origin.z;

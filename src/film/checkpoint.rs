@@ -28,7 +28,7 @@ use serde_json::{json, Map, Value};
 use xxhash_rust::xxh3::Xxh3;
 
 use super::{Film, Moments, PixelSums};
-use crate::io::{self, WriteError};
+use crate::io::{self, InputFile, WriteError};
 
 const MAGIC: &[u8; 8] = b"EMBERCKP";
 /// The film file format this ember reads and writes.
@@ -244,11 +244,12 @@ pub struct FilmReader {
 
 impl FilmReader {
     pub fn open(path: &Path) -> Result<FilmReader, CheckpointError> {
-        let file = File::open(path).map_err(|e| CheckpointError::Read {
+        let input = InputFile::open(path).map_err(|e| CheckpointError::Read {
             path: path.to_owned(),
-            reason: e.to_string(),
+            reason: e.reason,
         })?;
-        let file_len = file.metadata().map(|m| m.len()).unwrap_or(0);
+        let file_len = input.len();
+        let file = input.into_file();
         let mut reader = FilmReader {
             path: path.to_owned(),
             header: Header::default(), // read next

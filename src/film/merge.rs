@@ -127,13 +127,15 @@ fn read_headers(paths: &[PathBuf]) -> Result<Vec<(PathBuf, Header)>, MergeError>
     if paths.is_empty() {
         return Err(MergeError::NoInput);
     }
-    let mut seen = HashMap::new();
+    // One file under two names (`s0.shard`, `./s0.shard`, a link) is given twice.
+    let mut seen: Vec<crate::io::FileIdentity> = Vec::with_capacity(paths.len());
     let mut shards = Vec::with_capacity(paths.len());
     for path in paths {
-        let key = std::fs::canonicalize(path).unwrap_or_else(|_| path.clone());
-        if seen.insert(key, ()).is_some() {
+        let identity = crate::io::file_identity(path);
+        if seen.iter().any(|s| s.same(&identity)) {
             return Err(MergeError::SamePath { path: path.clone() });
         }
+        seen.push(identity);
         shards.push((path.clone(), FilmReader::open(path)?.header));
     }
     Ok(shards)

@@ -11,7 +11,8 @@ use crate::image::{Image, ImageFileError, OutputFormat, Tonemap};
 
 /// What goes into the output file beside the image.
 pub struct FilmOutput<'a> {
-    /// Passes written as layers (EXR only; the caller refuses them for other formats).
+    /// Passes written as layers (EXR only; the caller refuses them for other formats),
+    /// each once however often it is named.
     pub aovs: &'a [Aov],
     /// Denoise the image with the albedo and normal passes as guides.
     pub denoise: bool,
@@ -25,11 +26,31 @@ pub enum OutputError {
     File(#[from] ImageFileError),
     #[error(transparent)]
     Denoise(#[from] DenoiseError),
+    #[error(
+        "{count} of the {pixels} pixels have no sample (the first is ({x}, {y})): an image \
+         would show them black although nothing was measured there; no image written"
+    )]
+    Unsampled {
+        count: usize,
+        pixels: usize,
+        x: u32,
+        y: u32,
+    },
 }
 
 impl FilmOutput<'_> {
     /// Writes `film` to `path` (atomically, as every output).
+    /// Refuses a film with a pixel no sample reached.
     pub fn write(&self, film: &Film, path: &Path) -> Result<(), OutputError> {
+        let unsampled = film.pixels.iter().filter(|p| p.done == 0).count();
+        if let Some(first) = film.pixels.iter().position(|p| p.done == 0) {
+            return Err(OutputError::Unsampled {
+                count: unsampled,
+                pixels: film.pixels.len(),
+                x: first as u32 % film.width,
+                y: first as u32 / film.width,
+            });
+        }
         let noisy = film.resolve();
         let image = if self.denoise {
             let albedo = pass_image(film, Aov::Albedo);
@@ -51,7 +72,11 @@ impl FilmOutput<'_> {
                 .layers
                 .push(Layer::from_image(names::NOISY, names::RGB, &noisy));
         }
-        for &aov in self.aovs {
+        // A pass named twice (`--aov albedo,normal,albedo`) is one layer.
+        for (i, &aov) in self.aovs.iter().enumerate() {
+            if self.aovs[..i].contains(&aov) {
+                continue;
+            }
             layered
                 .layers
                 .push(Layer::new(aov.name(), aov.channels(), film.aov(aov)));

@@ -31,7 +31,52 @@ pub enum InstanceError {
     Singular { instance: usize },
 }
 
+/// The largest coordinate a ray may have where a backend takes it, in the world or in
+/// an instance's object space: Embree's `FLT_LARGE`, past which Embree refuses a ray
+/// (and, built with assertions as Debian's 3.13.5 is, aborts the process).
+pub const MAX_RAY_COORDINATE: f32 = 1.844e18;
+
+/// How far from the scene rays must be carried whole by every placement: from any
+/// point whose coordinates are within this many times the placed scene's own (a
+/// camera may stand far off).
+pub const RAY_REACH: f32 = 1024.0;
+
 impl Instance {
+    /// Why a ray in the world cannot be taken to this instance's object space in
+    /// `f32` and within [`MAX_RAY_COORDINATE`]: a unit direction, or an origin whose
+    /// coordinates are at most `reach`, would come out larger (an axis scaled far
+    /// down). `None` when every such ray is carried.
+    pub fn carry_error(&self, reach: f32) -> Option<String> {
+        let Some(inverse) = self.to_object() else {
+            return Some(format!(
+                "it cannot be inverted in f32 (its determinant is {:e})",
+                self.transform.matrix3.determinant()
+            ));
+        };
+        let stretch = max_row_sum(&inverse);
+        let largest = stretch * reach.max(1.0) + inverse.translation.abs().max_element();
+        // NaN is not carried either.
+        let carried = largest < MAX_RAY_COORDINATE;
+        (!carried).then(|| {
+            format!(
+                "in the OBJ's own space it stretches lengths by up to {stretch:.3e}: a ray \
+                 from within {reach:.3e} of the origin would reach {largest:.3e}, past the \
+                 {MAX_RAY_COORDINATE:.3e} that f32 rays in Embree can carry"
+            )
+        })
+    }
+
+    /// The largest ray coordinates, origin and direction, that this instance carries to
+    /// its object space within [`MAX_RAY_COORDINATE`] (see [`Instance::carry_error`]).
+    pub fn carried(&self) -> (f32, f32) {
+        let Some(inverse) = self.to_object() else {
+            return (0.0, 0.0);
+        };
+        let stretch = max_row_sum(&inverse).max(f32::MIN_POSITIVE);
+        let origin = (MAX_RAY_COORDINATE - inverse.translation.abs().max_element()) / stretch;
+        (origin.max(0.0), MAX_RAY_COORDINATE / stretch)
+    }
+
     /// The transform from the world to object space, or `None` when the transform has
     /// a non-finite entry or no finite inverse (a zero scale, a flattening matrix).
     pub fn to_object(&self) -> Option<Affine3A> {
@@ -62,6 +107,14 @@ impl Instance {
         let pad = scale * (1.0 / (1 << 18) as f32);
         [world[0] - pad, world[1] + pad]
     }
+}
+
+/// The largest factor by which `t`'s linear part lengthens a coordinate: its largest
+/// row sum of absolute values (the infinity norm).
+fn max_row_sum(t: &Affine3A) -> f32 {
+    let m = t.matrix3;
+    let rows = m.x_axis.abs() + m.y_axis.abs() + m.z_axis.abs();
+    rows.max_element()
 }
 
 /// The inverse transforms of `instances`, after checking that each names one of

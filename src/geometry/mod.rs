@@ -11,7 +11,9 @@ mod filter;
 mod instance;
 
 pub use filter::{HitFilter, Opaque};
-pub use instance::{object_ray, object_transforms, Instance, InstanceError};
+pub use instance::{
+    object_ray, object_transforms, Instance, InstanceError, MAX_RAY_COORDINATE, RAY_REACH,
+};
 
 use glam::Vec3;
 

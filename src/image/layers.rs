@@ -8,7 +8,8 @@
 //! [`names`].
 
 use std::collections::BTreeMap;
-use std::io::Cursor;
+use std::fs::File;
+use std::io::{BufReader, Cursor, Seek, SeekFrom};
 use std::path::Path;
 
 use exr::prelude as x;
@@ -16,7 +17,7 @@ use exr::prelude::traits::{ReadChannels, ReadLayers, WritableImage};
 use glam::Vec3;
 
 use super::{Image, ImageFileError};
-use crate::io::{self, WriteError};
+use crate::io::{self, InputFile, WriteError};
 
 /// The layer and channel names ember writes (docs/guide.md, "Passes, denoising, …").
 pub mod names {
@@ -48,6 +49,20 @@ pub struct Layer {
     pub channels: Vec<String>,
     /// `channels.len()` values per pixel, pixel after pixel, row 0 at the top.
     pub data: Vec<f32>,
+}
+
+/// An EXR file's size as its headers give it (its first part's), before any pixel is
+/// read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ExrSize {
+    pub width: u32,
+    pub height: u32,
+    /// Channels in all parts.
+    pub channels: u64,
+    /// Bytes of memory [`LayeredImage::read_exr`] holds at its peak: every channel's
+    /// samples as stored (2 or 4 bytes), as `f32`, and interleaved into its layer, and
+    /// the offset table.
+    pub read_bytes: u64,
 }
 
 /// Layers of one size, written as one multi-layer EXR.
@@ -249,23 +264,44 @@ impl LayeredImage {
         Ok(io::write_atomically(path, &bytes)?)
     }
 
+    /// The size of the EXR file at `path` and what reading it takes, from its
+    /// headers alone.
+    pub fn exr_size(path: &Path) -> Result<ExrSize, ImageFileError> {
+        let (headers, _) = read_exr_meta(path)?;
+        let first = headers.first().ok_or_else(|| ImageFileError::Read {
+            path: path.to_owned(),
+            reason: "it holds no image part".into(),
+        })?;
+        let side = |s: usize| u32::try_from(s).unwrap_or(u32::MAX);
+        Ok(ExrSize {
+            width: side(first.layer_size.0),
+            height: side(first.layer_size.1),
+            channels: headers.iter().map(|h| h.channels.list.len() as u64).sum(),
+            read_bytes: exr_headers_memory(&headers),
+        })
+    }
+
     /// Reads every channel of an EXR file (all parts of the same size; half, float and
-    /// integer samples as `f32`). Layers come back sorted by name, the main image
-    /// first; a layer's channels in the order R, G, B, A, then the rest alphabetically
-    /// (so `X,Y,Z` as written).
+    /// integer samples as `f32`), after checking from its headers that reading it fits
+    /// in memory. Layers come back sorted by name, the main image first; a layer's
+    /// channels in the order R, G, B, A, then the rest alphabetically (so `X,Y,Z` as
+    /// written).
     pub fn read_exr(path: &Path) -> Result<LayeredImage, ImageFileError> {
         let fail = |reason: String| ImageFileError::Read {
             path: path.to_owned(),
             reason,
         };
-        let bytes = std::fs::read(path).map_err(|e| fail(e.to_string()))?;
+        let (headers, reader) = read_exr_meta(path)?;
+        let (w, h) = headers.first().map_or((0, 0), |h| h.layer_size.into());
+        crate::limits::check_fits(&format!("a {w}x{h} EXR"), exr_headers_memory(&headers))
+            .map_err(fail)?;
         let image = x::read()
             .no_deep_data()
             .largest_resolution_level()
             .all_channels()
             .all_layers()
             .all_attributes()
-            .from_buffered(Cursor::new(bytes))
+            .from_buffered(reader)
             .map_err(|e| fail(format!("not a readable OpenEXR file: {e}")))?;
         let size = image
             .layer_data
@@ -322,6 +358,43 @@ impl LayeredImage {
             layers,
         })
     }
+}
+
+/// The headers of the EXR file at `path`, read before any pixel, and the file rewound
+/// for the reader.
+fn read_exr_meta(path: &Path) -> Result<(exr::meta::Headers, BufReader<File>), ImageFileError> {
+    let fail = |reason: String| ImageFileError::Read {
+        path: path.to_owned(),
+        reason,
+    };
+    let mut reader = InputFile::open(path)
+        .map_err(|e| fail(e.reason))?
+        .into_reader();
+    let meta = exr::meta::MetaData::read_from_buffered(&mut reader, false)
+        .map_err(|e| fail(format!("not a readable OpenEXR file: {e}")))?;
+    reader
+        .seek(SeekFrom::Start(0))
+        .map_err(|e| fail(e.to_string()))?;
+    Ok((meta.headers, reader))
+}
+
+/// Bytes reading the parts `headers` describe holds at its peak (see
+/// [`LayeredImage::exr_memory_bytes`]).
+fn exr_headers_memory(headers: &[exr::meta::header::Header]) -> u64 {
+    headers
+        .iter()
+        .map(|header| {
+            let pixels = (header.layer_size.0 as u64).saturating_mul(header.layer_size.1 as u64);
+            let per_pixel: u64 = header
+                .channels
+                .list
+                .iter()
+                .map(|c| c.sample_type.bytes_per_sample() as u64 + 4 + 4)
+                .sum::<u64>()
+                + 8;
+            pixels.saturating_mul(per_pixel)
+        })
+        .fold(0, u64::saturating_add)
 }
 
 /// Sort key of a channel within its layer: colour channels in their usual order, then

@@ -10,8 +10,8 @@ mod tonemap;
 pub use compare::{
     compare, compare_crop, compare_pixels, downsampled, Crop, CropError, ImageError, SizeMismatch,
 };
-pub use decode::{decode_file, decode_jpeg};
-pub use layers::{Layer, LayerError, LayeredImage};
+pub use decode::{decode_file, decode_jpeg, ImageFile};
+pub use layers::{ExrSize, Layer, LayerError, LayeredImage};
 pub use tonemap::{ToneCurve, Tonemap};
 
 use std::path::{Path, PathBuf};
@@ -155,13 +155,65 @@ impl Image {
     /// Reads an image (8- and 16-bit formats taken as sRGB, EXR and HDR as linear) into
     /// linear RGB, strictly ([`decode_file`]).
     pub fn load(path: &Path) -> Result<Image, ImageFileError> {
-        let image = decode_file(path).map_err(|reason| ImageFileError::Read {
+        let fail = |reason| ImageFileError::Read {
             path: path.to_owned(),
             reason,
-        })?;
+        };
+        let file = ImageFile::open(path).map_err(fail)?;
+        let image = file
+            .decode_within("image", Image::LOAD_BYTES_PER_PIXEL)
+            .map_err(fail)?;
         Ok(Image::from_image(image))
     }
 
+    /// Bytes per pixel [`Image::load`] makes beside the decoded image: an RGB `f32`
+    /// copy of it, then the pixels.
+    pub const LOAD_BYTES_PER_PIXEL: u64 = 24;
+
+    /// Loads two images that are used together (`ember compare`'s image and reference),
+    /// after checking from their headers that both fit in memory at once, beside a
+    /// downsampled copy of the first: nothing is decoded when they do not.
+    pub fn load_pair(a: &Path, b: &Path) -> Result<(Image, Image), ImageFileError> {
+        let open = |path: &Path| {
+            ImageFile::open(path).map_err(|reason| ImageFileError::Read {
+                path: path.to_owned(),
+                reason,
+            })
+        };
+        let (file_a, file_b) = (open(a)?, open(b)?);
+        let needed = pair_memory_bytes(&file_a, &file_b);
+        let what = format!(
+            "comparing a {}x{} image with a {}x{} reference",
+            file_a.width, file_a.height, file_b.width, file_b.height
+        );
+        crate::limits::check_fits(&what, needed).map_err(|reason| ImageFileError::Read {
+            path: a.to_owned(),
+            reason,
+        })?;
+        let decode = |file: ImageFile, path: &Path| {
+            file.decode()
+                .map(Image::from_image)
+                .map_err(|reason| ImageFileError::Read {
+                    path: path.to_owned(),
+                    reason,
+                })
+        };
+        // Each is held while the other is decoded (the check above counted both).
+        let image = decode(file_a, a)?;
+        Ok((image, decode(file_b, b)?))
+    }
+}
+
+/// Bytes of memory [`Image::load_pair`] holds at its peak: both decodings with their
+/// conversions, and a downsampled copy of the first image (at most its own size).
+pub fn pair_memory_bytes(a: &ImageFile, b: &ImageFile) -> u64 {
+    let pixels_a = u64::from(a.width) * u64::from(a.height);
+    a.memory_bytes(Image::LOAD_BYTES_PER_PIXEL)
+        .saturating_add(b.memory_bytes(Image::LOAD_BYTES_PER_PIXEL))
+        .saturating_add(pixels_a.saturating_mul(12))
+}
+
+impl Image {
     /// A decoded image in linear RGB: floating-point images (EXR, HDR) as they are,
     /// 8- and 16-bit ones (PNG, JPEG, …) decoded from sRGB.
     pub fn from_image(image: DynamicImage) -> Image {

@@ -29,6 +29,29 @@ const GUIDE_IDENTITY: &str = "sd-tree 13 (emitters' direct light learnt as far a
 /// The identity's entry of a guided render's training iterations.
 pub const GUIDING_ITERATIONS: &str = "guiding-iterations";
 
+/// The settings a checkpoint's identity gives to a `--resume` that leaves them to
+/// their defaults, which follow `--spp` (and a resume may raise it): guiding's
+/// training iterations and adaptive sampling's `--min-spp`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ResumedDefaults {
+    pub guiding_iterations: Option<u32>,
+    pub min_spp: Option<u32>,
+}
+
+impl ResumedDefaults {
+    /// What `identity` (a checkpoint's or shard's) says of them.
+    pub fn of(identity: &Identity) -> ResumedDefaults {
+        let entry = |key: &str| identity.iter().find(|(k, _)| k == key).map(|(_, v)| v);
+        ResumedDefaults {
+            guiding_iterations: entry(GUIDING_ITERATIONS).and_then(|v| v.parse().ok()),
+            // "threshold 0.05, min-spp 32", as `identity` writes it.
+            min_spp: entry("adaptive")
+                .and_then(|v| v.split_once(", min-spp "))
+                .and_then(|(_, n)| n.parse().ok()),
+        }
+    }
+}
+
 /// The identity of a render, as (name, value) pairs in a fixed order. Floats are written
 /// with `{:?}`, which round-trips exactly.
 pub fn identity(

@@ -17,12 +17,14 @@ mod training;
 
 pub use adaptive::Adaptive;
 pub use guide_view::{guide_view, GuidePicture, GuideView};
-pub use identity::{identity, scene_hash, ALGORITHM_VERSION, GUIDE_VERSION, GUIDING_ITERATIONS};
+pub use identity::{
+    identity, scene_hash, ResumedDefaults, ALGORITHM_VERSION, GUIDE_VERSION, GUIDING_ITERATIONS,
+};
 pub use probe::{probe_camera, CameraProbe};
 pub use training::train_guide;
 
 use std::ops::Range;
-use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, MutexGuard};
 use std::time::{Duration, Instant};
 
@@ -74,6 +76,9 @@ pub struct RenderStats {
     /// the alias table).
     pub light_build_seconds: f64,
     pub light_nodes: usize,
+    /// Whether the deadline came before every pixel had a sample, and the render went
+    /// on until each had one (an image of unsampled pixels would show nothing).
+    pub deadline_overrun: bool,
 }
 
 impl RenderStats {
@@ -113,8 +118,9 @@ pub struct RenderControl<'a> {
     pub first_pass_spp: u32,
     /// Periodic snapshots of the film, if wanted.
     pub checkpoint: Option<Checkpointing<'a>>,
-    /// The render stops when this time comes (`--time-limit`), like a stop request;
-    /// passes are then sized to end near it, so that pixels differ little in samples.
+    /// The render stops when this time comes (`--time-limit`), like a stop request,
+    /// but not before every pixel has a sample; passes are sized to end near it, so
+    /// that pixels differ little in samples.
     pub deadline: Option<Instant>,
     /// Called after each whole pass with the film's state (progress bars).
     pub on_pass: &'a (dyn Fn(&PassReport) + Sync),
@@ -240,6 +246,8 @@ pub fn render_progressive<A: Accel>(
         control,
         rays: AtomicU64::new(0),
         dropped: AtomicU64::new(0),
+        sampled: AtomicBool::new(film.min_done() > 0),
+        overrun: AtomicBool::new(false),
     };
     let finished = (Mutex::new(false), Condvar::new());
     let trained = std::thread::scope(|scope| {
@@ -288,6 +296,7 @@ pub fn render_progressive<A: Accel>(
         guiding: trained,
         light_build_seconds: light_build.as_secs_f64(),
         light_nodes,
+        deadline_overrun: tiled.overrun.into_inner(),
     };
     (film, stats)
 }
@@ -330,14 +339,47 @@ struct TiledFilm<'a> {
     control: &'a RenderControl<'a>,
     rays: AtomicU64,
     dropped: AtomicU64,
+    /// Whether every pixel has a sample: only then may the deadline end the render.
+    sampled: AtomicBool,
+    /// Whether the deadline passed before every pixel had a sample.
+    overrun: AtomicBool,
 }
 
 impl TiledFilm<'_> {
-    /// Whether a stop was asked for or the deadline has passed.
+    /// Whether a stop was asked for, or the deadline has passed once every pixel has
+    /// a sample.
     #[inline]
     fn stopped(&self) -> bool {
-        self.control.stop.load(Ordering::Relaxed) != 0
-            || self.control.deadline.is_some_and(|d| Instant::now() >= d)
+        self.control.stop.load(Ordering::Relaxed) != 0 || self.past_deadline()
+    }
+
+    /// Whether the deadline has passed and every pixel has a sample; noting when it
+    /// passed before they all had one.
+    #[inline]
+    fn past_deadline(&self) -> bool {
+        if self.control.deadline.is_none_or(|d| Instant::now() < d) {
+            return false;
+        }
+        let sampled = self.sampled.load(Ordering::Relaxed);
+        if !sampled && !self.overrun.load(Ordering::Relaxed) {
+            self.overrun.store(true, Ordering::Relaxed);
+        }
+        sampled
+    }
+
+    /// Notes, once the deadline has passed, whether every pixel has a sample now
+    /// (between passes or training batches, when no tile is being rendered).
+    fn note_sampled(&self) {
+        // Only the deadline asks: before it, the pixels need not be looked at.
+        let late = self.control.deadline.is_some_and(|d| Instant::now() >= d);
+        if !late || self.sampled.load(Ordering::Relaxed) {
+            return;
+        }
+        let sampled = self.tiles.iter().all(|tile| {
+            let tile = tile.lock().unwrap_or_else(|p| p.into_inner());
+            tile.pixels.iter().all(|p| p.done > 0)
+        });
+        self.sampled.store(sampled, Ordering::Relaxed);
     }
 
     /// Counts what a worker spent on one tile: rays traced, samples dropped as
@@ -370,6 +412,7 @@ impl<A: Accel> Passes<'_, A> {
             if last_pass.is_some() {
                 (self.film.control.on_pass)(&report);
             }
+            self.film.note_sampled();
             if self.film.stopped() {
                 break;
             }

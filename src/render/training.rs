@@ -101,6 +101,7 @@ pub(super) fn train_in_film<A: Accel>(
     film: &TiledFilm<'_>,
 ) -> Option<(SdTree, GuidingStats)> {
     train(tracer, camera, settings, guiding, Some(film), &|| {
+        film.note_sampled();
         film.stopped()
     })
 }

@@ -16,7 +16,31 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::{load_obj_with, place, LoadOptions, LoadReport, Scene};
-use crate::geometry::Instance;
+use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
+use crate::io::InputFile;
+use crate::limits::{check_fits, human_bytes};
+
+/// What parsing a scene file holds at its peak (the `toml` crate's document, every key
+/// and value with its place, and the entries read from it), from the text's structure:
+/// a table (a `[header]` or an inline `{`) holds a tree node of its own, an array a
+/// vector, each `key =` an entry of its table's map, each list item a value. Upper
+/// bounds of what each structure was measured to cost
+/// (benches/results/2026-12-06-memory-estimates.md).
+const MEMORY_PER_TABLE: u64 = 2048;
+const MEMORY_PER_ARRAY: u64 = 512;
+const MEMORY_PER_KEY: u64 = 640;
+const MEMORY_PER_ITEM: u64 = 160;
+/// The text itself, and its copies in the parser's strings.
+const MEMORY_PER_SCENE_BYTE: u64 = 4;
+
+/// Bytes of memory one placement holds once loaded and rendered: its transforms and
+/// frame in the scene, its entries in both backends' two-level structures (Embree's
+/// instance geometry, the native BVH's instance and node). About twice what was
+/// measured (the results file above; pinned by `tests/memory_estimates.rs`).
+pub const MEMORY_PER_PLACEMENT: u64 = 1024;
+/// Bytes per emissive triangle of a placed OBJ: its world-space copy and the light
+/// sampler's records and tree over it (measured and pinned as above).
+const MEMORY_PER_PLACED_EMITTER: u64 = 1024;
 
 /// A scene-file error: one line naming the file, the line and column, and the key.
 #[derive(Debug, thiserror::Error)]
@@ -45,6 +69,8 @@ pub struct Placed {
     /// Index into [`SceneFile::objs`].
     pub obj: usize,
     pub transform: Affine3A,
+    /// The entry's place in the file, for errors about its transform.
+    pub span: Range<usize>,
 }
 
 /// An OBJ the scene loads once.
@@ -119,14 +145,24 @@ enum Scale {
 }
 
 impl SceneFile {
-    /// Reads and checks the scene file at `path` (not yet its OBJs).
+    /// Reads and checks the scene file at `path` (not yet its OBJs), after checking
+    /// that reading it fits in memory.
     pub fn read(path: &Path) -> Result<SceneFile, SceneFileError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SceneFileError {
+        let fail = |message: String| SceneFileError {
             path: path.to_owned(),
             line: 1,
             column: 1,
             key: "(file)".into(),
-            message: format!("cannot read the scene file: {e}"),
+            message: format!("cannot read the scene file: {message}"),
+        };
+        let input = InputFile::open(path).map_err(|e| fail(e.reason))?;
+        let what = format!("reading it ({})", human_bytes(input.len()));
+        check_fits(&what, input.len()).map_err(fail)?;
+        let bytes = input.read_all().map_err(|e| fail(e.reason))?;
+        check_fits("parsing it", parse_memory_bytes(&bytes)).map_err(fail)?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let at = e.utf8_error().valid_up_to();
+            fail(format!("it is not UTF-8 text (byte {at})"))
         })?;
         Self::parse(path, text)
     }
@@ -213,6 +249,7 @@ impl SceneFile {
         self.placements.push(Placed {
             obj: self.objs.len(),
             transform,
+            span: span.clone(),
         });
         self.objs.push(ObjFile {
             name,
@@ -250,7 +287,11 @@ impl SceneFile {
             return Err(self.error(of.span(), "instance.obj", &message));
         };
         let transform = self.transform(&entry, "instance")?;
-        self.placements.push(Placed { obj, transform });
+        self.placements.push(Placed {
+            obj,
+            transform,
+            span,
+        });
         Ok(())
     }
 
@@ -316,14 +357,17 @@ impl SceneFile {
             Some(spanned) => {
                 let r = spanned.get_ref();
                 let axis = Vec3::from(r.axis);
-                if !finite(&r.axis) || !r.degrees.is_finite() || axis.length_squared() < 1e-12 {
+                let largest = axis.abs().max_element();
+                if !finite(&r.axis) || !r.degrees.is_finite() || largest == 0.0 {
                     return Err(at(
                         "rotate",
                         spanned.span(),
                         "needs a finite, non-zero axis and finite degrees",
                     ));
                 }
-                Quat::from_axis_angle(axis.normalize(), r.degrees.to_radians())
+                // Scaled to its largest component before normalising: the length of
+                // [1e38, 1e38, 0] overflows f32, that of [1e-30, 0, 0] underflows.
+                Quat::from_axis_angle((axis / largest).normalize(), r.degrees.to_radians())
             }
         };
         let scale = match entry.scale.as_ref().map(|s| (s.get_ref(), s.span())) {
@@ -355,6 +399,8 @@ impl SceneFile {
     /// once without a transform gives that OBJ's scene as `ember render OBJ` loads it,
     /// value for value.
     pub fn load_scene(&self, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneFileError> {
+        // The placements alone, before any OBJ is read; all of it once they are.
+        self.check_memory(&[])?;
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
             let scene = load_obj_with(&obj.path, options)
@@ -374,8 +420,9 @@ impl SceneFile {
             report.vertex_colours = report.vertex_colours.or(r.vertex_colours);
             report.warnings.extend(r.warnings.iter().cloned());
         }
-        self.check_memory(&loaded)?;
         let scenes: Vec<&Scene> = loaded.iter().map(|(scene, _)| scene).collect();
+        self.check_memory(&scenes)?;
+        self.check_carried(&loaded)?;
         let instances = self
             .placements
             .iter()
@@ -395,31 +442,119 @@ impl SceneFile {
 }
 
 impl SceneFile {
-    /// Refuses, before placing, a scene that would not fit in memory: each OBJ's
-    /// vertices (position, normal, uv) and triangles (indices, material) once, twice
-    /// over for the accelerator built on it, and for each placement its transforms and
-    /// its world-space copies of the OBJ's emissive triangles.
-    fn check_memory(&self, loaded: &[(Scene, LoadReport)]) -> Result<(), SceneFileError> {
-        let meshes: u64 = loaded
+    /// Refuses a placement that rays cannot reach in `f32` and Embree: the placed
+    /// scene's coordinates times [`RAY_REACH`] must stay below [`MAX_RAY_COORDINATE`],
+    /// and every placement must carry a ray from within that reach to its OBJ's own
+    /// space below it too (an axis scaled by 1e-19 would take a ray to 1e19 there).
+    fn check_carried(&self, loaded: &[(Scene, LoadReport)]) -> Result<(), SceneFileError> {
+        let bounds: Vec<[Vec3; 2]> = loaded
             .iter()
             .map(|(scene, _)| {
-                let mesh = &scene.mesh;
-                (mesh.positions.len() as u64 * 32 + mesh.triangles.len() as u64 * 16) * 2
+                let (lo, hi) = scene.mesh.bounds();
+                [lo, hi]
             })
-            .sum();
-        let placements: u64 = self
-            .placements
-            .iter()
-            .map(|p| 256 + loaded[p.obj].0.emitters.len() as u64 * 64)
-            .sum();
+            .collect();
+        let instance = |p: &Placed| Instance {
+            mesh: p.obj as u32,
+            transform: p.transform,
+        };
+        let extent = |p: &Placed| {
+            let [lo, hi] = instance(p).world_bounds(bounds[p.obj]);
+            lo.abs().max(hi.abs()).max_element()
+        };
+        let world = self.placements.iter().map(extent).fold(0.0f32, f32::max);
+        let reach = world * RAY_REACH;
+        for (i, p) in self.placements.iter().enumerate() {
+            let far = extent(p);
+            let near = far * RAY_REACH < MAX_RAY_COORDINATE;
+            let what = if !near {
+                Some(format!(
+                    "it places the OBJ {far:.3e} from the origin: rays from within {RAY_REACH} \
+                     times that would pass the {MAX_RAY_COORDINATE:.3e} that f32 rays in \
+                     Embree can carry"
+                ))
+            } else if reach < MAX_RAY_COORDINATE {
+                instance(p).carry_error(reach)
+            } else {
+                // Another placement is too far; it is the one refused.
+                None
+            };
+            if let Some(what) = what {
+                // The first placements are the [[obj]] entries', one each.
+                let table = if i < self.objs.len() {
+                    "obj"
+                } else {
+                    "instance"
+                };
+                return Err(self.error(p.span.clone(), table, &what));
+            }
+        }
+        Ok(())
+    }
+
+    /// Refuses, before placing, a scene that would not fit in memory
+    /// ([`SceneFile::load_memory_bytes`]).
+    fn check_memory(&self, loaded: &[&Scene]) -> Result<(), SceneFileError> {
         let what = format!(
             "{} placements of {} OBJs",
             self.placements.len(),
             self.objs.len()
         );
-        crate::limits::check_fits(&what, meshes + placements)
+        check_fits(&what, self.load_memory_bytes(loaded))
             .map_err(|e| self.error(0..0, "instance", &e))
     }
+
+    /// Bytes of memory placing the loaded OBJs `loaded` (one per [`SceneFile::objs`];
+    /// an empty list counts the placements alone) and rendering them holds
+    /// ([`placement_memory_bytes`]).
+    pub fn load_memory_bytes(&self, loaded: &[&Scene]) -> u64 {
+        placement_memory_bytes(loaded, self.placements.iter().map(|p| p.obj))
+    }
+}
+
+/// Bytes of memory placing the OBJs `loaded` (empty: the placements alone) at
+/// `placements` (each the index of its OBJ) and rendering them holds: each OBJ's
+/// vertices (position, normal, uv) and triangles (indices, material) once, twice over
+/// for the accelerator built on it, and per placement what the scene, both backends'
+/// two-level structures and the light sampler keep of it ([`MEMORY_PER_PLACEMENT`]),
+/// with world-space copies of its emissive triangles.
+pub fn placement_memory_bytes(loaded: &[&Scene], placements: impl Iterator<Item = usize>) -> u64 {
+    let meshes: u64 = loaded
+        .iter()
+        .map(|scene| {
+            let mesh = &scene.mesh;
+            (mesh.positions.len() as u64 * 32 + mesh.triangles.len() as u64 * 16) * 2
+        })
+        .sum();
+    let emitters = |obj: usize| loaded.get(obj).map_or(0, |s| s.emitters.len() as u64);
+    let placed: u64 = placements
+        .map(|obj| MEMORY_PER_PLACEMENT + emitters(obj) * MEMORY_PER_PLACED_EMITTER)
+        .sum();
+    meshes + placed
+}
+
+/// Bytes of memory parsing the scene-file text `text` holds at its peak, counted from
+/// its structure (see [`MEMORY_PER_TABLE`]); brackets and signs inside strings and
+/// comments count too, which only overestimates.
+pub fn parse_memory_bytes(text: &[u8]) -> u64 {
+    let (mut tables, mut arrays, mut keys, mut items) = (0u64, 0u64, 0u64, 0u64);
+    let mut line_start = true;
+    for &b in text {
+        match b {
+            b'[' if line_start => tables += 1,
+            b'{' => tables += 1,
+            b'[' => arrays += 1,
+            b'=' => keys += 1,
+            b',' => items += 1,
+            _ => {}
+        }
+        line_start = b == b'\n' || (line_start && (b == b' ' || b == b'\t'));
+    }
+    text.len() as u64 * MEMORY_PER_SCENE_BYTE
+        + tables * MEMORY_PER_TABLE
+        + arrays * MEMORY_PER_ARRAY
+        + keys * MEMORY_PER_KEY
+        + items * MEMORY_PER_ITEM
 }
 
 impl SceneFile {

@@ -25,7 +25,10 @@ pub use camera::{Camera, CameraSettings, Lens};
 pub use compose::{compose, mirrors, Placement};
 pub use cutout::{coin, Opacity, PartOpacity};
 pub use environment::{Environment, SkySample};
-pub use file::{ObjFile, Placed, SceneFile, SceneFileError, Setting};
+pub use file::{
+    parse_memory_bytes, placement_memory_bytes, ObjFile, Placed, SceneFile, SceneFileError,
+    Setting, MEMORY_PER_PLACEMENT,
+};
 pub use instances::{place, Instancing, MeshPart};
 pub use material::{
     alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
@@ -34,7 +37,7 @@ pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use normal_maps::{bump, keep_reflection_above, normal_map, uv_derivatives};
 pub use obj::{
     check_counts, load_obj, load_obj_from_str, load_obj_with, LoadReport, VertexColours,
-    MAX_TRIANGLES, MEMORY_PER_OBJ_BYTE,
+    MAX_TRIANGLES, MEMORY_PER_MATERIAL, MEMORY_PER_MTL_BYTE, MEMORY_PER_OBJ_BYTE,
 };
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
@@ -53,14 +56,8 @@ use crate::geometry::Hit;
 /// Why a scene could not be loaded. Each message is one line that names the file.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneError {
-    // The reason is part of the line, not a `source`: `{:#}` would print it twice.
-    #[error("cannot read {path}: {reason}")]
-    Io {
-        path: PathBuf,
-        reason: std::io::Error,
-    },
-    #[error("{path} is a directory, not an OBJ file")]
-    IsDirectory { path: PathBuf },
+    #[error(transparent)]
+    Read(#[from] crate::io::ReadError),
     #[error("{path} is not a valid OBJ file: {reason}")]
     Obj { path: PathBuf, reason: String },
     #[error("material library {path} (named by mtllib in {obj}): {reason}")]

@@ -15,6 +15,8 @@
 //! - A value that does not read is an error naming its line, the material and what was
 //!   expected. Numbers must be finite.
 
+use std::collections::HashMap;
+
 use super::texture_files::parse_statement;
 
 /// What a library defines, and what the user should hear about it.
@@ -141,6 +143,9 @@ struct Reader {
     current: Option<tobj::Material>,
     /// Unknown keys as written: the line each was first seen on, and how many times.
     unknown: Vec<(String, usize, usize)>,
+    /// Each unknown key's place in `unknown`: a library of a million distinct keys is
+    /// read in linear time, not quadratic.
+    unknown_at: HashMap<String, usize>,
 }
 
 impl Reader {
@@ -204,9 +209,12 @@ impl Reader {
     }
 
     fn unknown_key(&mut self, line: usize, key: &str) {
-        match self.unknown.iter_mut().find(|(k, ..)| k == key) {
-            Some((_, _, count)) => *count += 1,
-            None => self.unknown.push((key.to_owned(), line, 1)),
+        match self.unknown_at.get(key) {
+            Some(&at) => self.unknown[at].2 += 1,
+            None => {
+                self.unknown_at.insert(key.to_owned(), self.unknown.len());
+                self.unknown.push((key.to_owned(), line, 1));
+            }
         }
     }
 

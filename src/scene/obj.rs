@@ -21,6 +21,8 @@ use super::obj_text::{argument, pad_vertex_colours, strip_comments};
 use super::texture_files::{Referrer, TextureLoader};
 use super::warnings::{LoadOptions, Warnings};
 use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, TriangleMesh};
+use crate::io::{InputFile, ReadError};
+use crate::limits::{check_fits, human_bytes};
 
 /// Facts about a load worth telling the user.
 #[derive(Clone, Debug, Default, PartialEq, Eq)]
@@ -77,46 +79,58 @@ impl VertexColours {
     }
 }
 
-/// Reads a file whole; non-UTF-8 bytes (common in comments of old exporters) become
-/// U+FFFD instead of failing the load.
-fn read_text(path: &Path) -> std::io::Result<String> {
-    let bytes = match read_in_parallel(path) {
-        Some(bytes) => bytes,
-        None => std::fs::read(path)?,
-    };
+/// The text of the file at `path`, after checking that `per_byte` bytes of memory for
+/// each of its bytes fit in the memory available.
+fn read_checked(path: &Path, per_byte: u64) -> Result<String, ReadError> {
+    let input = InputFile::open(path)?;
+    let what = format!("the file ({})", human_bytes(input.len()));
+    check_fits(&what, input.len().saturating_mul(per_byte))
+        .map_err(|reason| ReadError::new(path, reason))?;
+    read_text(input)
+}
+
+/// Reads an opened file whole; non-UTF-8 bytes (common in comments of old exporters)
+/// become U+FFFD instead of failing the load.
+fn read_text(input: InputFile) -> Result<String, ReadError> {
+    let bytes = read_in_parallel(input)?;
     Ok(match String::from_utf8(bytes) {
         Ok(s) => s,
         Err(e) => String::from_utf8_lossy(e.as_bytes()).into_owned(),
     })
 }
 
-/// A regular file's bytes, read in pieces on all threads (a single reader leaves
-/// most of a large OBJ's load waiting on one core's copy from the page cache); `None`
-/// where that does not work (a pipe, a file that changed size), to read it plainly.
+/// A regular file's bytes, read in pieces on all threads: a single reader leaves most
+/// of a large OBJ's load waiting on one core's copy from the page cache.
 #[cfg(unix)]
-fn read_in_parallel(path: &Path) -> Option<Vec<u8>> {
+fn read_in_parallel(input: InputFile) -> Result<Vec<u8>, ReadError> {
     use rayon::prelude::*;
     use std::os::unix::fs::FileExt;
     const PIECE: usize = 8 << 20;
-    let file = std::fs::File::open(path).ok()?;
-    let meta = file.metadata().ok()?;
-    if !meta.is_file() {
-        return None;
-    }
-    let mut bytes = vec![0; usize::try_from(meta.len()).ok()?];
+    let fail = |e: std::io::Error| ReadError::new(input.path(), e.to_string());
+    let len = usize::try_from(input.len())
+        .map_err(|_| ReadError::new(input.path(), "it is too large to read"))?;
+    let mut bytes = vec![0; len];
     bytes
         .par_chunks_mut(PIECE)
         .enumerate()
-        .try_for_each(|(i, piece)| file.read_exact_at(piece, (i * PIECE) as u64))
-        .ok()?;
-    // Nothing past the length we read: the file did not grow meanwhile.
-    let at_end = matches!(file.read_at(&mut [0], meta.len()), Ok(0));
-    at_end.then_some(bytes)
+        .try_for_each(|(i, piece)| input.file().read_exact_at(piece, (i * PIECE) as u64))
+        .map_err(|e| match e.kind() {
+            std::io::ErrorKind::UnexpectedEof => {
+                ReadError::new(input.path(), "it became shorter while being read")
+            }
+            _ => fail(e),
+        })?;
+    // Nothing past the length read: the file did not grow meanwhile.
+    match input.file().read_at(&mut [0], input.len()) {
+        Ok(0) => Ok(bytes),
+        Ok(_) => Err(ReadError::new(input.path(), "it grew while being read")),
+        Err(e) => Err(fail(e)),
+    }
 }
 
 #[cfg(not(unix))]
-fn read_in_parallel(_: &Path) -> Option<Vec<u8>> {
-    None
+fn read_in_parallel(input: InputFile) -> Result<Vec<u8>, ReadError> {
+    input.read_all()
 }
 
 /// The material names the text's `usemtl` statements give, each once, with the line
@@ -242,7 +256,7 @@ impl Sources<'_> {
                 let Some(path) = warnings.located(found, missing, INSTEAD_OF_LIBRARY)? else {
                     return Ok(None);
                 };
-                let text = read_text(&path).map_err(|e| error(path.clone(), e.to_string()))?;
+                let text = read_mtl(&path).map_err(|e| error(path.clone(), e.reason))?;
                 let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
                 Ok(Some((path, text, Some(folder))))
             }
@@ -299,6 +313,38 @@ impl Sources<'_> {
 /// with shorter lines.
 pub const MEMORY_PER_OBJ_BYTE: u64 = 8;
 
+/// Most bytes of memory one byte of MTL text costs while loading, besides its
+/// materials: the text, its copies, and the reader's record of the keys it does not
+/// know (a `KEY VALUE` line of a distinct key, 7 bytes or more when they are many,
+/// keeps its key, its count and its warning). An upper bound of the worst case
+/// measured (benches/results/2026-12-06-memory-estimates.md).
+pub const MEMORY_PER_MTL_BYTE: u64 = 48;
+
+/// Bytes of memory one `newmtl` costs while loading: the reader's material and ember's (an
+/// upper bound of what was measured, as above).
+pub const MEMORY_PER_MATERIAL: u64 = 1024;
+
+/// The text of the material library at `path`, after checking that its text and its
+/// materials fit in the memory available.
+fn read_mtl(path: &Path) -> Result<String, ReadError> {
+    let text = read_checked(path, MEMORY_PER_MTL_BYTE)?;
+    // As the MTL reader reads them: the first word of a line, in any case.
+    let materials = text
+        .lines()
+        .filter(|l| {
+            l.split_whitespace()
+                .next()
+                .is_some_and(|w| w.eq_ignore_ascii_case("newmtl"))
+        })
+        .count() as u64;
+    check_fits(
+        &format!("its {materials} materials"),
+        materials.saturating_mul(MEMORY_PER_MATERIAL),
+    )
+    .map_err(|reason| ReadError::new(path, reason))?;
+    Ok(text)
+}
+
 /// Triangle and vertex indices are `u32` and Embree's primitive ids too; 2^31 triangles
 /// keeps every index and count well inside that.
 pub const MAX_TRIANGLES: u64 = 1 << 31;
@@ -317,31 +363,7 @@ pub fn load_obj_with(
     path: &Path,
     options: &LoadOptions,
 ) -> Result<(Scene, LoadReport), SceneError> {
-    let io = |reason| SceneError::Io {
-        path: path.to_owned(),
-        reason,
-    };
-    let meta = std::fs::metadata(path).map_err(io)?;
-    if meta.is_dir() {
-        return Err(SceneError::IsDirectory {
-            path: path.to_owned(),
-        });
-    }
-    let needed = meta.len().saturating_mul(MEMORY_PER_OBJ_BYTE);
-    if let Some(available) = crate::limits::available_memory() {
-        if needed > available {
-            return Err(SceneError::TooLarge {
-                path: path.to_owned(),
-                what: format!(
-                    "the file is {}, which needs about {} of memory to load and build; only {} is available",
-                    crate::limits::human_bytes(meta.len()),
-                    crate::limits::human_bytes(needed),
-                    crate::limits::human_bytes(available)
-                ),
-            });
-        }
-    }
-    let text = read_text(path).map_err(io)?;
+    let text = read_checked(path, MEMORY_PER_OBJ_BYTE)?;
     let dir = path.parent().unwrap_or(Path::new("")).to_path_buf();
     load_obj_text(path, text.into(), &Sources::Disk { dir }, options)
 }

@@ -244,20 +244,10 @@ fn split_word(text: &str) -> (&str, &str) {
     }
 }
 
-/// Decodes an image file, refusing one whose copies (`bytes_per_texel` of them beside
-/// the decoded image) would not fit in memory.
+/// Decodes an image file, refusing one whose decoding and copies (`bytes_per_texel` of
+/// them beside the decoded image) would not fit in memory.
 fn decode(path: &Path, bytes_per_texel: u64) -> Result<DynamicImage, String> {
-    let image = crate::image::decode_file(path)?;
-    // The decoder caps its own allocation (the image crate's default limit, 512 MiB);
-    // the copies made from it take up to `bytes_per_texel` per texel on top.
-    let texels = u64::from(image.width()) * u64::from(image.height());
-    crate::limits::check_fits(
-        &format!("a {}x{} texture", image.width(), image.height()),
-        texels * bytes_per_texel,
-    )?;
-    if texels == 0 {
-        return Err("image is empty".into());
-    }
+    let image = crate::image::ImageFile::open(path)?.decode_within("texture", bytes_per_texel)?;
     if let Some((x, y, value)) = non_finite_texel(&image) {
         return Err(format!(
             "texel ({x}, {y}) holds {value}: every value must be finite"

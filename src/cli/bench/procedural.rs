@@ -84,7 +84,31 @@ impl fmt::Display for Procedural {
     }
 }
 
+/// Bytes of memory `ember bench` holds per triangle of a mesh it measures: the mesh,
+/// and the Embree and native BVH structures built on it (each build's, one at a time,
+/// beside the ones kept for the traversals). An upper bound of what was measured
+/// (benches/results/2026-12-06-memory-estimates.md; pinned by
+/// tests/memory_estimates.rs).
+pub const BENCH_BYTES_PER_TRIANGLE: u64 = 512;
+/// Bytes per ray of each set (primary, diffuse, shadow): the rays, their hits and
+/// packets of all three sets (measured as above).
+pub const BENCH_BYTES_PER_RAY: u64 = 400;
+
+/// Bytes of memory `ember bench` holds at its peak measuring a mesh of `triangles`
+/// with `rays` rays per set.
+pub fn bench_memory_bytes(triangles: u64, rays: u64) -> u64 {
+    triangles
+        .saturating_mul(BENCH_BYTES_PER_TRIANGLE)
+        .saturating_add(rays.saturating_mul(BENCH_BYTES_PER_RAY))
+}
+
 impl Procedural {
+    /// The triangles [`generate`](Self::generate) makes, at most (the sphere's grid
+    /// is within a few percent of the request).
+    pub fn most_triangles(&self) -> u64 {
+        self.triangles as u64 + self.triangles as u64 / 16
+    }
+
     /// Vertices and triangles; the triangle count is close to the request (exact for
     /// the soup, within a few percent for the sphere's grid).
     pub fn generate(&self, seed: u64) -> (Vec<Vec3>, Vec<[u32; 3]>) {

@@ -177,6 +177,9 @@ pub fn to_json(
         "threads": threads,
         "loading": loadings.iter().map(Loading::to_json).collect::<Vec<_>>(),
         "results": rows,
+        // The whole run's, from the kernel (VmHWM): what the memory check before each
+        // mesh is measured against.
+        "peak_resident_bytes": ember::limits::peak_resident_bytes(),
     })
 }
 

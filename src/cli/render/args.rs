@@ -133,7 +133,7 @@ pub struct RenderArgs {
     ///
     /// A scene without any emissive material would render black, so it is lit by a
     /// white sky unless a sky is given.
-    #[arg(long, value_name = "R,G,B", value_parser = parse_vec3, allow_hyphen_values = true, conflicts_with = "env", help_heading = LIGHTS)]
+    #[arg(long, value_name = "R,G,B", value_parser = parse_background, allow_hyphen_values = true, conflicts_with = "env", help_heading = LIGHTS)]
     pub background: Option<Vec3>,
     /// Light the scene with an equirectangular environment map (EXR or HDR).
     ///
@@ -211,9 +211,11 @@ pub struct RenderArgs {
     pub checkpoint: Option<PathBuf>,
     /// Continue from the checkpoint to --spp samples per pixel.
     ///
-    /// The scene, camera, size, seed, depth, integrator and accelerator must be the
-    /// ones the checkpoint was made with. Once the image is written, the checkpoint
-    /// (unless --checkpoint-every keeps it) and the partial image are removed.
+    /// The scene, camera, size, seed, depth, integrator, accelerator, adaptive sampling
+    /// and guiding must be the ones the checkpoint was made with; --guiding-iterations
+    /// and --min-spp, when not given, are the checkpoint's (docs/robustness.md). Once
+    /// the image is written, the checkpoint (unless --checkpoint-every keeps it) and the
+    /// partial image are removed.
     #[arg(long, help_heading = LONG)]
     pub resume: bool,
     /// Render only shard I of N, to a shard file for `ember merge`.
@@ -246,6 +248,15 @@ fn parse_f32(s: &str, ok: impl Fn(f32) -> bool, what: &str) -> Result<f32, Strin
         Ok(v) if v.is_finite() && ok(v) => Ok(v),
         _ => Err(format!("{s:?} is not {what}")),
     }
+}
+
+/// A sky's radiance `R,G,B`: three finite numbers, none negative.
+fn parse_background(s: &str) -> Result<Vec3, String> {
+    let v = parse_vec3(s)?;
+    if v.min_element() < 0.0 {
+        return Err(format!("{s:?} is negative: a radiance is 0 or more"));
+    }
+    Ok(v)
 }
 
 fn parse_env_scale(s: &str) -> Result<f32, String> {

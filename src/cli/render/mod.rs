@@ -49,7 +49,7 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     let mut plan = RenderPlan::from_args(args);
     plan.scene_file = scene_file;
     plan.check()?;
-    plan.resume_guiding()?;
+    plan.resume_defaults()?;
     let mut pool = rayon::ThreadPoolBuilder::new();
     if let Some(n) = plan.threads {
         pool = pool.num_threads(n as usize);

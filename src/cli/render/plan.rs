@@ -19,7 +19,7 @@ use ember::film::checkpoint::{FilmReader, Header, Identity};
 use ember::film::shard_samples;
 use ember::guiding::Guiding;
 use ember::image::Tonemap;
-use ember::render::{self, Adaptive, RenderSettings, GUIDING_ITERATIONS};
+use ember::render::{self, Adaptive, RenderSettings, ResumedDefaults};
 use ember::scene::{Lens, LoadOptions, SceneFile};
 
 /// What the camera flags ask for; the defaults depend on the scene's bounds.
@@ -60,8 +60,10 @@ pub struct RenderPlan {
     pub guide_sky: bool,
     /// The sample indices this process renders: `0..spp`, or the shard's.
     pub samples: Range<u32>,
-    /// Whether `--guiding-iterations` was given (else a resume takes the checkpoint's).
+    /// Whether `--guiding-iterations` and `--min-spp` were given (else a resume takes
+    /// the checkpoint's: see [`RenderPlan::resume_defaults`]).
     pub guiding_iterations_given: bool,
+    pub min_spp_given: bool,
     /// How the scene is loaded (`--strict`).
     pub load: LoadOptions,
     /// The tev viewer to stream the image in progress to (`--display`).
@@ -82,6 +84,7 @@ impl RenderPlan {
             .shard
             .map_or(0..args.spp, |shard| shard_samples(args.spp, shard));
         let guiding_iterations_given = args.guiding_iterations.is_some();
+        let min_spp_given = args.min_spp.is_some();
         let adaptive = args.noise_threshold.map(|threshold| {
             let whole = Adaptive {
                 threshold,
@@ -92,8 +95,6 @@ impl RenderPlan {
             // Each shard aims at the error that its merge with the others reaches T.
             args.shard.map_or(whole, |(_, n)| whole.for_shard_of(n))
         });
-        let mut aovs = args.aov;
-        aovs.dedup();
         RenderPlan {
             scene: args.scene,
             scene_file: None,
@@ -134,7 +135,7 @@ impl RenderPlan {
                 rotate: args.env_rotate,
             }),
             tonemap: args.tone.into(),
-            aovs,
+            aovs: args.aov,
             denoise: args.denoise,
             time_limit: args.time_limit.map(Duration::from_secs_f64),
             shard: args.shard,
@@ -142,6 +143,7 @@ impl RenderPlan {
             guide_sky: args.guide_sky,
             samples,
             guiding_iterations_given,
+            min_spp_given,
             load: LoadOptions {
                 strict: args.strict,
             },
@@ -154,23 +156,23 @@ impl RenderPlan {
         u64::from(self.settings.width) * u64::from(self.settings.height)
     }
 
-    /// A resumed guided render without `--guiding-iterations` trains as its checkpoint
-    /// did: the default follows `--spp`, which a resume may raise. (Where the
-    /// checkpoint is not guided, loading it refuses it.)
-    pub fn resume_guiding(&mut self) -> Result<()> {
-        let Some(guiding) = self.settings.guiding.as_mut() else {
-            return Ok(());
-        };
-        if !self.resume || self.guiding_iterations_given {
+    /// The one rule of `--resume` for settings whose default follows `--spp` (which a
+    /// resume may raise): left to their defaults, `--guiding-iterations` and
+    /// `--min-spp` are the checkpoint's; given, they must equal it (loading the
+    /// checkpoint compares every setting that decides the samples, and refuses).
+    pub fn resume_defaults(&mut self) -> Result<()> {
+        if !self.resume {
             return Ok(());
         }
-        let header = FilmReader::open(&self.checkpoint)?.header;
-        let theirs = header
-            .identity
-            .iter()
-            .find(|(k, _)| k == GUIDING_ITERATIONS);
-        if let Some(n) = theirs.and_then(|(_, v)| v.parse().ok()) {
-            guiding.iterations = n;
+        let theirs = ResumedDefaults::of(&FilmReader::open(&self.checkpoint)?.header.identity);
+        if let (Some(guiding), false) = (
+            self.settings.guiding.as_mut(),
+            self.guiding_iterations_given,
+        ) {
+            guiding.iterations = theirs.guiding_iterations.unwrap_or(guiding.iterations);
+        }
+        if let (Some(adaptive), false) = (self.settings.adaptive.as_mut(), self.min_spp_given) {
+            adaptive.min_spp = theirs.min_spp.unwrap_or(adaptive.min_spp);
         }
         Ok(())
     }
@@ -187,10 +189,9 @@ impl RenderPlan {
                 bail!("--guide-pixel {x},{y} is outside the {w}x{h} image");
             }
         }
-        if self.background.is_some_and(|b| b.min_element() < 0.0) {
-            bail!("--background must not be negative");
-        }
-        if self.resume && !self.checkpoint.is_file() {
+        // What is there but cannot be read (a folder, a named pipe) is refused by the
+        // checkpoint's reader, saying what it is.
+        if self.resume && !self.checkpoint.exists() {
             bail!(
                 "cannot resume: there is no checkpoint {}",
                 self.checkpoint.display()
@@ -224,27 +225,32 @@ impl RenderPlan {
         if self.shard.is_some() && (self.denoise || !self.aovs.is_empty()) {
             bail!("a shard holds every pass: give --denoise and --aov to `ember merge`");
         }
+        let partial = partial_output(&self.output);
         if self.shard.is_none() {
             check_image_output(&self.output, &self.aovs, self.denoise)?;
-            check_image_output(&partial_output(&self.output), &self.aovs, self.denoise)?;
-            if same_file(&self.checkpoint, &self.output) {
-                bail!(
-                    "the checkpoint {} would overwrite the image: give another --checkpoint",
-                    self.checkpoint.display()
-                );
-            }
+            check_image_output(&partial, &self.aovs, self.denoise)?;
         }
         ember::io::check_writable(&self.checkpoint)?;
+        let mut outputs: Vec<(&str, &Path)> = match self.shard {
+            Some(_) => vec![("the shard file", &self.output)],
+            None => vec![
+                ("the image", &self.output),
+                ("the partial image", &partial),
+                ("the checkpoint", &self.checkpoint),
+            ],
+        };
         if let Some((path, _)) = &self.guide_image {
             check_image_output(path, &[], false)?;
-            if same_file(path, &self.output) || same_file(path, &self.checkpoint) {
-                bail!(
-                    "--guide-image {} would overwrite the render's output",
-                    path.display()
-                );
-            }
+            outputs.push(("--guide-image", path));
         }
-        Ok(())
+        let mut inputs: Vec<(&str, &Path)> = vec![("the scene", &self.scene)];
+        if let Some(file) = &self.scene_file {
+            inputs.extend(file.objs.iter().map(|o| ("the OBJ", o.path.as_path())));
+        }
+        if let Some(env) = &self.env {
+            inputs.push(("the environment map", &env.path));
+        }
+        super::super::check_distinct_files(&outputs, &inputs)
     }
 
     /// The header of this render's checkpoints or shard file.
@@ -284,11 +290,6 @@ pub fn partial_output(output: &Path) -> PathBuf {
         .map(|e| e.to_string_lossy().into_owned())
         .unwrap_or_default();
     output.with_extension(format!("partial.{ext}"))
-}
-
-/// Whether two paths name one file (the same path, or links to one existing file).
-pub fn same_file(a: &Path, b: &Path) -> bool {
-    a == b || matches!((a.canonicalize(), b.canonicalize()), (Ok(a), Ok(b)) if a == b)
 }
 
 fn default_checkpoint(output: &Path) -> PathBuf {

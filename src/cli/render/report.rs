@@ -154,13 +154,16 @@ pub fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_byt
     );
 }
 
-pub fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize) {
+/// The line of an interrupted render; `sampled`: whether every pixel had a sample, so
+/// that a whole render wrote its partial image.
+pub fn report_interrupted(plan: &RenderPlan, film: &Film, signal: usize, sampled: bool) {
     let name = super::super::signal_name(signal);
     let image = match plan.shard {
-        None => format!(
+        None if sampled => format!(
             "the partial image {} and ",
             partial_output(&plan.output).display()
         ),
+        None => "no partial image (not every pixel had a sample yet), only ".into(),
         Some(_) => String::new(),
     };
     eprintln!(
@@ -243,8 +246,9 @@ pub enum Outcome<'a> {
     Finished {
         checkpoint: Option<&'a std::path::Path>,
     },
-    /// Stopped by `signal`: the partial image (not for a shard) and the checkpoint.
-    Interrupted { signal: usize },
+    /// Stopped by `signal`: the checkpoint, and the partial image where `sampled`
+    /// (every pixel had a sample; never for a shard).
+    Interrupted { signal: usize, sampled: bool },
 }
 
 /// The figures of the summary as one JSON object (`--json`).
@@ -261,12 +265,10 @@ pub fn summary_json(
     let path = |p: &std::path::Path| p.display().to_string();
     let (finished, interrupted_by, partial, checkpoint) = match outcome {
         Outcome::Finished { checkpoint } => (true, None, None, checkpoint.map(path)),
-        Outcome::Interrupted { signal } => (
+        Outcome::Interrupted { signal, sampled } => (
             false,
             Some(super::super::signal_name(signal)),
-            plan.shard
-                .is_none()
-                .then(|| path(&partial_output(&plan.output))),
+            (plan.shard.is_none() && sampled).then(|| path(&partial_output(&plan.output))),
             Some(path(&plan.checkpoint)),
         ),
     };

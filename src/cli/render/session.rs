@@ -98,20 +98,31 @@ pub fn finish_render<A: Accel>(
     let signal = stop.load(Ordering::SeqCst);
     if signal != 0 && !film.is_complete() {
         let partial = partial_output(&plan.output);
+        // An image is written only where every pixel has a sample.
+        let sampled = film.min_done() > 0;
         match plan.shard {
-            Some(_) => save_checkpoint(&film)?,
-            None => write_both(
+            None if sampled => write_both(
                 &partial,
                 || write_film_image(plan, &film, &partial),
                 || save_checkpoint(&film),
             )?,
+            _ => save_checkpoint(&film)?,
         }
-        report_interrupted(plan, &film, signal);
+        report_interrupted(plan, &film, signal, sampled);
         if plan.json {
-            let outcome = Outcome::Interrupted { signal };
+            let outcome = Outcome::Interrupted { signal, sampled };
             super::super::print_json(&summary_json(plan, loaded, &timeline, figures, outcome));
         }
         return Ok(ExitCode::from((128 + signal).min(255) as u8));
+    }
+    if let (true, Some(limit), true) =
+        (stats.deadline_overrun, plan.time_limit, verbosity::status())
+    {
+        eprintln!(
+            "note: --time-limit {} s ended before every pixel had a sample: rendered on \
+             until each had one",
+            limit.as_secs_f64()
+        );
     }
     let kept = write_finished(plan, &film, || save_checkpoint(&film))?;
     report_finished(plan, accel.name(), &stats, &passes, loaded.report.triangles);
