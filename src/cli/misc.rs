@@ -10,7 +10,7 @@ use ember::image::{self, Crop, Image};
 use glam::Vec3;
 
 use super::render::LoadedScene;
-use ember::scene::{LoadOptions, Material, Model, Scene, Texels};
+use ember::scene::{LoadOptions, Material, Model, Scene, SceneLight, Texels};
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -123,6 +123,7 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
     );
     print_materials(scene);
     print_lights(&loaded);
+    print_placed_lights(&loaded.placed_lights);
     print_textures(scene);
     let (lo, hi) = scene.bounds();
     let size = hi - lo;
@@ -259,6 +260,14 @@ fn print_lights(loaded: &LoadedScene) {
         );
     }
     println!("sky: {}", loaded.sky);
+}
+
+/// The lights a scene file places, one line each.
+pub fn print_placed_lights(lights: &[SceneLight]) {
+    println!("placed lights: {}", lights.len());
+    for (i, light) in lights.iter().enumerate() {
+        println!("  {}: {}", light.label(i), light.describe());
+    }
 }
 
 /// The textures: how many, their sizes and what they hold in memory.

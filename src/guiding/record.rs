@@ -40,7 +40,8 @@ const MAX_OPEN: usize = 32;
 /// weighed by how much of it the BSDFs there turn on along the path (the cosine, a
 /// glossy lobe). `shadow` says whether the record is a light sample of an emitter,
 /// and whether its shadow ray was clear: what a region learns how much of `direct` its
-/// guide must carry from (see [`SdTree::deposit`](super::SdTree::deposit)).
+/// guide must carry from (see [`SdTree::deposit`](super::SdTree::deposit)); or that
+/// `direct` is the light of a delta light ([`Shadow::Delta`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Record {
     pub p: Vec3,
@@ -60,6 +61,11 @@ pub enum Shadow {
     Clear,
     /// An emitter's light sample whose shadow ray was blocked.
     Blocked,
+    /// A delta light's light sample (a point, a spot, a sun without a disc) whose
+    /// shadow ray was clear: its `direct` light is part of what arrives at `p`, which
+    /// no direction a guide draws can find, so it counts in the region's irradiance
+    /// and never in its guide.
+    Delta,
 }
 
 /// What a light sample found, each radiance times its MIS weight over the sample's
@@ -72,6 +78,8 @@ pub enum LightFound {
     Emitter(Vec3),
     /// An emitter behind something.
     EmitterBlocked,
+    /// A delta light, its shadow ray clear.
+    Delta(Vec3),
     /// Nothing: a sky sample blocked or below the surface.
     Nothing,
 }
@@ -380,6 +388,9 @@ impl PathRecorder for PathRecords<'_> {
                 record(0.0, channel_mean(incident) * cos, 0.0, Shadow::Clear)
             }
             LightFound::EmitterBlocked => record(0.0, 0.0, 0.0, Shadow::Blocked),
+            LightFound::Delta(incident) => {
+                record(0.0, channel_mean(incident) * cos, 0.0, Shadow::Delta)
+            }
             LightFound::Nothing => record(0.0, 0.0, 0.0, Shadow::Untested),
         };
         if record.value.is_finite() && record.direct.is_finite() {

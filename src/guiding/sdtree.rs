@@ -156,19 +156,27 @@ impl Leaf {
                 self.clear += 1;
             }
             Shadow::Blocked => self.shadow_tests += 1,
+            Shadow::Delta => self.records += 1,
         }
     }
 
     /// Adds a record's values, its direct light times its [`direct_share`], spread
     /// over directions (see [`QuadTree::deposit_filtered`]).
     fn deposit(&mut self, dir: Vec3, values: Values, visibility: f32) {
-        let Values { value, direct, sky } = values;
+        let Values {
+            value,
+            direct,
+            sky,
+            delta,
+        } = values;
         let guided = value + direct_share(visibility) * direct;
         if positive(guided) {
             self.directions.deposit_filtered(dir, f64::from(guided));
         }
-        if positive(value + direct) {
-            self.irradiance += f64::from(value + direct);
+        // A delta light's, which no guided direction can find, counts here only.
+        let arrived = value + direct + delta;
+        if positive(arrived) {
+            self.irradiance += f64::from(arrived);
         }
         if positive(sky) {
             self.sky.deposit_filtered(dir, f64::from(sky));
@@ -182,14 +190,20 @@ struct Values {
     value: f32,
     direct: f32,
     sky: f32,
+    delta: f32,
 }
 
 impl From<&Record> for Values {
     fn from(r: &Record) -> Values {
+        let (direct, delta) = match r.shadow {
+            Shadow::Delta => (0.0, r.direct),
+            _ => (r.direct, 0.0),
+        };
         Values {
             value: r.value,
-            direct: r.direct,
+            direct,
             sky: r.sky,
+            delta,
         }
     }
 }

@@ -207,6 +207,16 @@ fn record_passes(out: &mut Sample, bsdf: &Bsdf, surface: &SurfacePoint, wo: Vec3
     };
 }
 
+/// Whether light samples of `light` find what the path's own rays can also find (an
+/// emitter, a sun's disc): what training's records of emitters' visibility count.
+#[inline]
+fn light_found_by_rays(light: &LightSample) -> bool {
+    matches!(
+        light.target,
+        LightTarget::Emitter(_) | LightTarget::Light(_)
+    )
+}
+
 /// Veach's power heuristic (β = 2) for a sample of density `a` against density `b`.
 #[inline]
 pub fn power_heuristic(a: f32, b: f32) -> f32 {
@@ -237,13 +247,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             accel,
             max_depth,
             kind,
-            lights: LightSampler::with_kind(
-                scene.light_mesh(),
-                &scene.materials,
-                &scene.textures,
-                lights,
-            )
-            .with_sky(scene.sky.clone(), scene.bounding_radius()),
+            lights: LightSampler::for_scene(scene, lights),
             guide: None,
         }
     }
@@ -330,6 +334,16 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 } else {
                     recorder.added(sky);
                 }
+                if self.lights.has_sun_discs() {
+                    // A sun is direct light that light samples draw too, as an emitter's.
+                    let suns = throughput * self.sun_discs(ray.dir, emission_weight);
+                    radiance += suns;
+                    if ray_recorded && self.takes_light_samples() {
+                        recorder.met_emitter(suns);
+                    } else {
+                        recorder.added(suns);
+                    }
+                }
                 if !passes_found {
                     out.albedo = self
                         .scene
@@ -404,6 +418,11 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 if last_vertex {
                     break;
                 }
+            } else if !bsdf.is_delta() && self.lights.has_delta_lights() {
+                let light = self.delta_light(&surface, &bsdf, wo, rng, recorder, count);
+                let light = throughput * light;
+                radiance += light;
+                recorder.added(light);
             }
             // Roulette after what this vertex adds itself (its light sample) and before
             // it chooses where the path goes: the emission that choice aims at (the
@@ -539,6 +558,17 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         radiance * weight
     }
 
+    /// Radiance of the suns' discs seen along `dir` (a ray that left the scene), each
+    /// weighted as decided where the ray was chosen, against the density with which
+    /// light sampling picks it by that sun.
+    #[inline(never)]
+    fn sun_discs(&self, dir: Vec3, how: EmissionWeight<'_>) -> Vec3 {
+        self.lights
+            .suns_along(dir)
+            .map(|(radiance, pdf)| radiance * how.weight(|_, _| pdf))
+            .sum()
+    }
+
     /// Follows the BSDF's own sample. A `Mis` emission weight is completed with the
     /// sample's density; a delta sample's next emission always counts in full.
     #[inline(always)]
@@ -608,7 +638,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                     let draw = || Some(MixtureDraw::unlit(guide.normal()));
                     recorder.light_sample(p, n, dir, LightFound::Nothing, draw);
                 }
-                _ if blocked && drawn.point().is_some() => {
+                (GuidedLightDraw::Complete(light), _) if blocked && light_found_by_rays(light) => {
                     recorder.light_sample(p, n, dir, LightFound::EmitterBlocked, || None);
                 }
                 _ => {}
@@ -636,6 +666,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             return Vec3::ZERO;
         };
         let weight = match (mis, guide) {
+            // No direction a BSDF or a guide draws can find a delta light.
+            _ if light.is_delta() => 1.0,
             (false, _) => 1.0,
             (true, Some(guide)) if GUIDED => {
                 power_heuristic(light.pdf, guide.mixture_pdf(bsdf_pdf, light.dir))
@@ -646,18 +678,58 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         let reflected = f * light.emission * (weight / light.pdf);
         if R::RECORDS {
             let incident = light.emission * (weight / light.pdf);
-            let found = match light.point {
-                None => LightFound::Sky {
+            let found = match light.target {
+                LightTarget::Delta(_) => LightFound::Delta(incident),
+                LightTarget::Sky => LightFound::Sky {
                     incident,
                     integrand: reflected,
                 },
-                Some(_) => LightFound::Emitter(incident),
+                _ => LightFound::Emitter(incident),
             };
             recorder.light_sample(surface.p, surface.ns, light.dir, found, || {
                 sky_normal.map(|n| self.sky_draw(light.dir, light.pdf, n, f * light.emission))
             });
         }
         reflected
+    }
+
+    /// Next-event estimation of the delta lights alone, for the integrators that find
+    /// every other light by the directions they scatter into (`bsdf`, `mixture`): a
+    /// light sample counts where it chose a delta light, `f·cos · E / P` (weight 1:
+    /// none of their directions can find one), and is worth nothing here otherwise,
+    /// that light being found by the path.
+    #[inline(never)]
+    fn delta_light<R: PathRecorder>(
+        &self,
+        surface: &SurfacePoint,
+        bsdf: &Bsdf,
+        wo: Vec3,
+        rng: &mut Rng,
+        recorder: &mut R,
+        count: &mut RayCount,
+    ) -> Vec3 {
+        let at = receiver(surface, wo);
+        let Some(light) = self.lights.sample(at, rng).filter(LightSample::is_delta) else {
+            return Vec3::ZERO;
+        };
+        let f = bsdf.eval(wo, light.dir);
+        if f == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        count.rays += 1;
+        let shadow = match light.point {
+            Some(point) => surface.origin().spawn_to(&point),
+            None => surface.origin().spawn(light.dir),
+        };
+        if self.accel.occluded(&shadow) {
+            return Vec3::ZERO;
+        }
+        let incident = light.emission / light.pdf;
+        if R::RECORDS {
+            let found = LightFound::Delta(incident);
+            recorder.light_sample(surface.p, surface.ns, light.dir, found, || None);
+        }
+        f * incident
     }
 
     /// The light sample of [`direct_light`](Self::direct_light), its sky direction
@@ -802,7 +874,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     ) -> Option<Step<'t>> {
         // Where no light can shine, the mixture is all BSDF: a light sample there would
         // be void. The weights depend only on the point, so the estimate stays unbiased.
-        if !self.lights.may_light(surface.p) {
+        // So where every light is a delta light, whose draws are void too.
+        if !self.lights.may_light(surface.p) || !self.lights.has_hittable_lights() {
             return match guide {
                 Some(guide) => self.guided_step(bsdf, wo, guide, EmissionWeight::Full, rng),
                 None => self.bsdf_step(bsdf, wo, EmissionWeight::Full, rng),

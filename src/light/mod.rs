@@ -7,10 +7,15 @@
 //! the default from there on); with the BVH or `--light-sampler solid-angle`, a
 //! direction towards it by solid angle ([`spherical_triangle`]) or by area, as
 //! [`emitter`]'s rule decides.
+//!
+//! The scene's point and spot lights are chosen with the emitters (by the same table
+//! or tree, by power), its suns with the sky ([`placed`]). Point lights and suns
+//! without a disc are delta lights: only light samples reach them, with MIS weight 1.
 
 pub mod bvh;
 mod emitter;
 mod pdf;
+pub mod placed;
 mod sampler;
 pub mod spherical_triangle;
 

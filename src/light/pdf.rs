@@ -10,7 +10,9 @@
 //! triangle a direction was aimed at. A draw whose aimed-at triangle is not the first
 //! hit is *void*: it counts as a sample worth zero. `value` is then the density of the
 //! directions that are not void, and integrates to at most 1; an estimator
-//! `f(ω) / value(ω)` stays unbiased wherever `value > 0`.
+//! `f(ω) / value(ω)` stays unbiased wherever `value > 0`. A draw aimed at a delta light
+//! (a point, a spot, a sun without a disc) is void too: no density over directions
+//! holds it, and the integrators take those lights by next-event estimation instead.
 
 use glam::{Vec2, Vec3};
 
@@ -36,7 +38,9 @@ impl Direction {
         match self.aimed_at {
             None => true,
             Some(LightTarget::Emitter(prim)) => first_hit.is_some_and(|h| h.prim == prim),
-            Some(LightTarget::Sky) => first_hit.is_none(),
+            Some(LightTarget::Sky | LightTarget::Light(_)) => first_hit.is_none(),
+            // Void before it gets here (see `generate`).
+            Some(LightTarget::Delta(_)) => false,
         }
     }
 }
@@ -89,13 +93,13 @@ impl Pdf for LightPdf<'_> {
     fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
         match first_hit {
             Some(hit) => self.lights.pdf_hit(self.at, hit.prim, dir, hit.t),
-            None => self.lights.pdf_sky(dir),
+            None => self.lights.pdf_far(dir),
         }
     }
 
     #[inline]
     fn generate(&self, rng: &mut Rng) -> Option<Direction> {
-        let sample = self.lights.sample(self.at, rng)?;
+        let sample = self.lights.sample(self.at, rng).filter(|s| !s.is_delta())?;
         Some(Direction {
             dir: sample.dir,
             aimed_at: Some(sample.target),
@@ -119,9 +123,15 @@ impl<G: SkyGuide> Pdf for GuidedLightPdf<'_, G> {
     fn value(&self, dir: Vec3, first_hit: Option<&Hit>) -> f32 {
         match first_hit {
             Some(hit) => self.lights.pdf_hit(self.at, hit.prim, dir, hit.t),
-            None => self
-                .lights
-                .pdf_sky_guided(dir, self.share, self.guide.pdf(dir)),
+            None => {
+                let sky = self
+                    .lights
+                    .pdf_sky_guided(dir, self.share, self.guide.pdf(dir));
+                match self.lights.has_sun_discs() {
+                    false => sky,
+                    true => sky + self.lights.pdf_suns(dir),
+                }
+            }
         }
     }
 
@@ -131,6 +141,7 @@ impl<G: SkyGuide> Pdf for GuidedLightPdf<'_, G> {
             .lights
             .draw_with_sky_guide(self.at, rng, self.share, self.guide)?;
         let aimed_at = match drawn {
+            GuidedLightDraw::Complete(sample) if sample.is_delta() => return None,
             GuidedLightDraw::Complete(sample) => sample.target,
             GuidedLightDraw::Sky(_) => LightTarget::Sky,
         };

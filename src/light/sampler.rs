@@ -22,6 +22,11 @@
 //!
 //! Emitters are one-sided: they emit on the side their counter-clockwise normal points
 //! to. A point seen from behind has density 0: it is never a useful light sample.
+//!
+//! The scene's point and spot lights are chosen with the emitters, after them in the
+//! same table or tree; its suns with the sky, the two together chosen against the rest
+//! as the sky alone would be. A delta light's sample carries the probability of its one
+//! direction as its `pdf` (see [`super::placed`]).
 
 use glam::{Vec2, Vec3};
 
@@ -31,10 +36,13 @@ use std::time::{Duration, Instant};
 
 use super::bvh::{LightBounds, LightBvh};
 use super::emitter::{Emitter, Receiver, NO_MAP};
+use super::placed::{point_bounds, point_towards, point_weight, sun_power, Sun};
 use crate::color::luminance;
 use crate::geometry::{barycentric_error, SurfaceOrigin};
 use crate::sampling::{choose_second, AliasTable, Rng, ONE_BELOW};
-use crate::scene::{Environment, Material, Texture, TriangleMesh};
+use crate::scene::{
+    DirectionalLight, Environment, Light, Material, PointLight, Scene, Texture, TriangleMesh,
+};
 
 /// Directions towards the sky learnt outside the light module (path guiding's, at one
 /// vertex: where light was found to arrive from, so where the sky is seen rather than
@@ -108,9 +116,16 @@ pub struct LightSampler {
     emitters: Vec<Emitter>,
     /// The scene's textures, for the `map_Ke` of emitters (`Emitter::map`).
     maps: Vec<Arc<Texture>>,
-    /// `None` when no emitter has power.
+    /// Point and spot lights, chosen with the emitters by the same table or tree:
+    /// choice `emitters.len() + k` is `points[k]`.
+    points: Vec<PointLight>,
+    /// Index in the scene's `lights` of each of `points`, and of each of `suns`.
+    point_ids: Vec<u32>,
+    sun_ids: Vec<u32>,
+    /// Over the emitters and point lights; `None` when none has power.
     choice: Option<Choice>,
-    /// `π Σ A·lum(Ke)` over the emitters: their power, weighed against the sky's.
+    /// `π Σ A·lum(Ke)` over the emitters and `lum(Φ)` over the point lights: their
+    /// power, weighed against the sky's and the suns'.
     power: f32,
     /// Where the emitters are and which way they face, to tell cheaply which points
     /// no emitter can light (see [`may_light`](Self::may_light)).
@@ -119,6 +134,24 @@ pub struct LightSampler {
     /// instead of an emitter.
     sky: Option<Arc<Environment>>,
     sky_probability: f32,
+    /// Directional lights, as [`with_sky`](Self::with_sky) found them; then the suns
+    /// it chose by power (`None`: none is sampled), chosen after the sky with
+    /// probability `sun_given_rest`, each then with probability `sun_probability`
+    /// in all.
+    sun_lights: Vec<DirectionalLight>,
+    suns: Vec<Sun>,
+    sun_table: Option<AliasTable>,
+    sun_given_rest: f32,
+    sun_probability: Vec<f32>,
+    /// Whether a sun has a disc that rays leaving the scene may meet.
+    sun_discs: bool,
+    /// Whether an emitter of some power, the sky or a sun's disc can be sampled.
+    hittable: bool,
+    /// Whether a point light or a sun without a disc can be sampled.
+    delta: bool,
+    /// The probability of choosing the emitters and point lights (rather than the sky
+    /// or a sun): `1 − P_sky` without suns.
+    local_probability: f32,
     /// Wall time the distribution over emitters took to build.
     build_time: Duration,
 }
@@ -142,6 +175,13 @@ pub enum LightTarget {
     Emitter(u32),
     /// The environment: the direction must leave the scene.
     Sky,
+    /// A sun's disc: the light of this index in `Scene::lights`; the direction must
+    /// leave the scene.
+    Light(u32),
+    /// A delta light (a point, a spot, a sun without a disc) of this index in
+    /// `Scene::lights`: the sample's `pdf` is the probability of its one direction, no
+    /// ray can find the light, and the sample's MIS weight is 1.
+    Delta(u32),
 }
 
 /// A box around every emitter and a cone around every emitter's normal.
@@ -213,8 +253,17 @@ pub struct LightSample {
     pub pdf: f32,
     /// The chosen emitter, or the sky.
     pub target: LightTarget,
-    /// Radiance the light point emits towards the shading point.
+    /// Radiance the light point emits towards the shading point; for a delta light,
+    /// the irradiance it sends there (`I/d²`, or a sun's `E`).
     pub emission: Vec3,
+}
+
+impl LightSample {
+    /// Whether it is a delta light's sample ([`LightTarget::Delta`]).
+    #[inline(always)]
+    pub fn is_delta(&self) -> bool {
+        matches!(self.target, LightTarget::Delta(_))
+    }
 }
 
 /// A light sample of [`LightSampler::draw_with_sky_guide`]: complete (an emitter's),
@@ -260,6 +309,7 @@ pub struct SkyDraw {
 #[derive(Clone, Copy, Debug)]
 enum SkyOrEmitter {
     Sky(f32),
+    Sun(f32),
     Emitter(f32),
 }
 
@@ -286,6 +336,48 @@ impl LightSampler {
         textures: &[Arc<Texture>],
         kind: LightSamplerKind,
     ) -> Self {
+        Self::with_lights(mesh, materials, textures, &[], kind)
+    }
+
+    /// The sampler of everything that lights `scene`: its emitters and placed lights
+    /// (chosen as `kind` says) and its sky.
+    pub fn for_scene(scene: &Scene, kind: LightSamplerKind) -> Self {
+        Self::with_lights(
+            scene.light_mesh(),
+            &scene.materials,
+            &scene.textures,
+            &scene.lights,
+            kind,
+        )
+        .with_sky(scene.sky.clone(), scene.bounding_radius())
+    }
+
+    /// [`with_kind`](Self::with_kind) with the scene's `lights` that are not
+    /// geometry: points and spots are chosen with the emitters, in proportion to
+    /// power by the alias table (their weight `lum(Φ)/π`, as a triangle's `A·lum(L)`
+    /// is), or by the light BVH as a point's bounds; suns are far lights, chosen
+    /// against the sky once [`with_sky`](Self::with_sky) knows the scene's size.
+    fn with_lights(
+        mesh: &TriangleMesh,
+        materials: &[Material],
+        textures: &[Arc<Texture>],
+        lights: &[Light],
+        kind: LightSamplerKind,
+    ) -> Self {
+        let (mut points, mut point_ids, mut sun_lights, mut sun_ids) =
+            (vec![], vec![], vec![], vec![]);
+        for (id, light) in lights.iter().enumerate() {
+            match light {
+                Light::Point(point) => {
+                    points.push(*point);
+                    point_ids.push(id as u32);
+                }
+                Light::Directional(sun) => {
+                    sun_lights.push(*sun);
+                    sun_ids.push(id as u32);
+                }
+            }
+        }
         let material = |t: u32| &materials[mesh.material[t as usize] as usize];
         let prims: Vec<u32> = (0..mesh.triangles.len() as u32)
             .filter(|&t| material(t).is_emissive())
@@ -316,9 +408,10 @@ impl LightSampler {
                 let mean = material(t).emission * mean_of(material(t).maps.emission);
                 mesh.area(t) * luminance(mean).max(0.0)
             })
+            .chain(points.iter().map(|p| point_weight(p).max(0.0)))
             .collect();
         let start = Instant::now();
-        let choice = match kind.resolve(prims.len()) {
+        let choice = match kind.resolve(prims.len() + points.len()) {
             LightSamplerKind::Auto => unreachable!("resolved above"),
             LightSamplerKind::Alias => AliasTable::new(&weights).map(Choice::Area),
             LightSamplerKind::SolidAngle => AliasTable::new(&weights).map(Choice::SolidAngle),
@@ -327,6 +420,7 @@ impl LightSampler {
                     .iter()
                     .zip(&weights)
                     .map(|(e, &w)| LightBounds::triangle(e.vertices, e.normal, w))
+                    .chain(points.iter().map(point_bounds))
                     .collect();
                 LightBvh::new(&bounds).map(Choice::Bvh)
             }
@@ -341,15 +435,31 @@ impl LightSampler {
                 };
             }
         }
+        let hittable = weights[..prims.len()]
+            .iter()
+            .any(|&w| w > 0.0 && w.is_finite());
+        let delta = !points.is_empty();
         LightSampler {
             prims,
             bounds: EmitterBounds::new(&emitters),
             emitters,
             maps: textures.to_vec(),
+            points,
+            point_ids,
+            sun_ids,
             choice,
             power: PI * weights.iter().sum::<f32>(),
             sky: None,
             sky_probability: 0.0,
+            sun_lights,
+            suns: Vec::new(),
+            sun_table: None,
+            sun_given_rest: 0.0,
+            sun_probability: Vec::new(),
+            sun_discs: false,
+            hittable,
+            delta,
+            local_probability: 1.0,
             build_time: start.elapsed(),
         }
     }
@@ -357,8 +467,16 @@ impl LightSampler {
     /// Adds the environment `sky` as a light, chosen against the emitters in
     /// proportion to estimated power: the emitters' `π Σ A·lum(Ke)` against the sky's
     /// `∫ lum(L) dω` through a disc of the scene's bounding radius, `π r²`.
+    ///
+    /// With suns, the sky and the suns together are the far lights, chosen against
+    /// the emitters and point lights as the sky alone would be, and among themselves
+    /// in proportion to power: a sun's `lum(E)` through the same disc.
     pub fn with_sky(mut self, sky: Option<Arc<Environment>>, scene_radius: f32) -> Self {
-        let Some(sky) = sky.filter(|s| !s.is_black()) else {
+        let sky = sky.filter(|s| !s.is_black());
+        if !self.sun_lights.is_empty() {
+            return self.with_far_lights(sky, scene_radius);
+        }
+        let Some(sky) = sky else {
             return self;
         };
         let sky_power = sky.luminous_intensity() * PI * scene_radius.max(1e-6).powi(2);
@@ -367,11 +485,61 @@ impl LightSampler {
         } else {
             (sky_power / (sky_power + self.power)).clamp(0.05, 0.95)
         };
+        self.local_probability = 1.0 - p;
         for e in &mut self.emitters {
-            e.area_density *= 1.0 - p;
+            e.area_density *= self.local_probability;
         }
         self.sky = Some(sky);
         self.sky_probability = p;
+        self.hittable = true;
+        self
+    }
+
+    /// [`with_sky`](Self::with_sky) where there are suns.
+    fn with_far_lights(mut self, sky: Option<Arc<Environment>>, scene_radius: f32) -> Self {
+        let area = PI * scene_radius.max(1e-6).powi(2);
+        let sky_power = sky.as_ref().map_or(0.0, |s| s.luminous_intensity() * area);
+        let sun_powers: Vec<f32> = self
+            .sun_lights
+            .iter()
+            .map(|l| sun_power(l, scene_radius))
+            .collect();
+        let Some(table) = AliasTable::new(&sun_powers) else {
+            // Black suns light nothing: the sky alone is the far light.
+            self.sun_lights.clear();
+            return self.with_sky(sky, scene_radius);
+        };
+        let suns_power: f32 = sun_powers.iter().sum();
+        let far_power = sky_power + suns_power;
+        let p_far = if self.choice.is_none() {
+            1.0
+        } else {
+            (far_power / (far_power + self.power)).clamp(0.05, 0.95)
+        };
+        let p_sky = match sky {
+            Some(_) => p_far * (sky_power / far_power),
+            None => 0.0,
+        };
+        self.sun_given_rest = if self.choice.is_none() {
+            1.0
+        } else {
+            ((p_far - p_sky) / (1.0 - p_sky)).clamp(0.0, 1.0)
+        };
+        self.local_probability = (1.0 - p_sky) * (1.0 - self.sun_given_rest);
+        for e in &mut self.emitters {
+            e.area_density *= self.local_probability;
+        }
+        let to_suns = (1.0 - p_sky) * self.sun_given_rest;
+        self.sun_probability = (0..sun_powers.len())
+            .map(|k| to_suns * table.pmf(k))
+            .collect();
+        self.suns = self.sun_lights.iter().map(Sun::new).collect();
+        self.sun_discs = self.suns.iter().any(|s| !s.is_delta());
+        self.hittable |= self.sun_discs || sky.is_some();
+        self.delta |= self.suns.iter().any(Sun::is_delta);
+        self.sun_table = Some(table);
+        self.sky = sky;
+        self.sky_probability = p_sky;
         self
     }
 
@@ -404,10 +572,10 @@ impl LightSampler {
     /// normal cone (axis `a`, half-angle θ), the largest `(p − q) · n` is reached at
     /// a corner `q` of the box, where it is positive iff the angle between `p − q`
     /// and `a` is below 90° + θ, i.e. `(p − q)/|p − q| · a > −sin θ`.
-    #[inline]
+    #[inline(always)]
     pub fn may_light(&self, p: Vec3) -> bool {
         let b = &self.bounds;
-        if self.sky.is_some() {
+        if self.sky.is_some() || self.sun_table.is_some() || !self.points.is_empty() {
             return true;
         }
         if self.choice.is_none() {
@@ -430,7 +598,21 @@ impl LightSampler {
 
     /// Whether there is anything to sample.
     pub fn is_empty(&self) -> bool {
-        self.choice.is_none() && self.sky.is_none()
+        self.choice.is_none() && self.sky.is_none() && self.sun_table.is_none()
+    }
+
+    /// Whether some light is a delta light (a point, a spot, a sun without a disc),
+    /// which only light samples can reach.
+    #[inline(always)]
+    pub fn has_delta_lights(&self) -> bool {
+        self.delta
+    }
+
+    /// Whether some light can be found by a ray too (an emitter, the sky, a sun's
+    /// disc): a light sample that is not a delta light's can be drawn.
+    #[inline(always)]
+    pub fn has_hittable_lights(&self) -> bool {
+        self.hittable
     }
 
     /// Number of emissive triangles that can be chosen or hit.
@@ -460,7 +642,7 @@ impl LightSampler {
     #[inline]
     pub fn choice_probability(&self, at: Receiver, prim: u32) -> f32 {
         self.emitter_index(prim)
-            .map_or(0.0, |i| (1.0 - self.sky_probability) * self.chosen(at, i))
+            .map_or(0.0, |i| self.local_probability * self.chosen(at, i))
     }
 
     /// Probability of emitter `i` given that an emitter (not the sky) is chosen.
@@ -498,6 +680,7 @@ impl LightSampler {
         let (choice, u2) = self.choose_sky_or_emitter(rng);
         match choice {
             SkyOrEmitter::Sky(u1) => self.sample_sky(rng.refine(u1), rng.refine(u2)),
+            SkyOrEmitter::Sun(u1) => self.sample_sun((u1, u2), rng),
             SkyOrEmitter::Emitter(u1) => self.sample_emitter(at, (u1, u2), rng),
         }
     }
@@ -576,6 +759,10 @@ impl LightSampler {
             (SkyOrEmitter::Sky(u1), u2) => self
                 .draw_guided_sky((u1, u2), share, guide, rng)
                 .map(GuidedLightDraw::Sky),
+            (SkyOrEmitter::Sun(u1), u2) => {
+                let sun = self.sample_sun((u1, u2), rng)?;
+                Some(GuidedLightDraw::Complete(sun))
+            }
             (SkyOrEmitter::Emitter(u1), u2) => {
                 let emitter = self.sample_emitter(at, (u1, u2), rng)?;
                 Some(GuidedLightDraw::Complete(emitter))
@@ -584,16 +771,19 @@ impl LightSampler {
     }
 
     /// A light sample's 2-D draw, its first uniform choosing the sky (with
-    /// probability [`sky_probability`](Self::sky_probability)) or an emitter, and
-    /// rescaled to a fresh uniform for the choice's own draw.
+    /// probability [`sky_probability`](Self::sky_probability)), else a sun or an
+    /// emitter (or point light), and rescaled to a fresh uniform for the choice's own
+    /// draw.
     #[inline(always)]
     fn choose_sky_or_emitter(&self, rng: &mut Rng) -> (SkyOrEmitter, f32) {
         let (mut u1, u2) = rng.pair();
         let emitter = choose_second(&mut u1, self.sky_probability);
-        let choice = if emitter {
-            SkyOrEmitter::Emitter(u1)
-        } else {
+        let choice = if !emitter {
             SkyOrEmitter::Sky(u1)
+        } else if self.sun_given_rest > 0.0 && !choose_second(&mut u1, self.sun_given_rest) {
+            SkyOrEmitter::Sun(u1)
+        } else {
+            SkyOrEmitter::Emitter(u1)
         };
         (choice, u2)
     }
@@ -632,13 +822,19 @@ impl LightSampler {
             // (`area_density` already holds the sky's share and the table's pmf).
             Choice::Area(table) => {
                 let (i, u1) = table.sample(u1);
+                if i >= self.emitters.len() {
+                    return self.sample_point(at, i, table.pmf(i));
+                }
                 let drawn = self.emitters[i].sample_area(at.p, [u1, u2])?;
                 (i, drawn.density, drawn)
             }
             Choice::SolidAngle(_) | Choice::Bvh(_) => {
                 let (i, probability, u1) = self.choose(at, u1)?;
+                if i >= self.emitters.len() {
+                    return self.sample_point(at, i, probability);
+                }
                 let drawn = self.emitters[i].sample(at, [u1, u2])?;
-                let pdf = (1.0 - self.sky_probability) * probability * drawn.density;
+                let pdf = self.local_probability * probability * drawn.density;
                 (i, pdf, drawn)
             }
         };
@@ -658,6 +854,90 @@ impl LightSampler {
             target: LightTarget::Emitter(self.prims[i]),
             emission: self.emission_at(emitter, drawn.b),
         })
+    }
+
+    /// The light sample of point light `i` (numbered after the emitters), chosen with
+    /// `probability` given that an emitter or point light is: the light it sends to
+    /// the receiver, over the probability of choosing it.
+    #[inline(never)]
+    fn sample_point(&self, at: Receiver, i: usize, probability: f32) -> Option<LightSample> {
+        let k = i - self.emitters.len();
+        let light = &self.points[k];
+        let (dir, distance, arriving) = point_towards(light, at.p)?;
+        let pdf = self.local_probability * probability;
+        (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
+            dir,
+            distance,
+            point: Some(SurfaceOrigin {
+                p: light.position,
+                error: Vec3::ZERO,
+                ng: -dir,
+            }),
+            pdf,
+            target: LightTarget::Delta(self.point_ids[k]),
+            emission: arriving,
+        })
+    }
+
+    /// A sun's light sample, from the 2-D draw that chose the suns: one of them by
+    /// power, then its one direction (a delta sun: `pdf` is the probability of
+    /// choosing it) or a direction in its disc.
+    #[inline(never)]
+    fn sample_sun(&self, (u1, u2): (f32, f32), rng: &mut Rng) -> Option<LightSample> {
+        let (k, u1) = self.sun_table.as_ref()?.sample(rng.refine(u1));
+        let sun = &self.suns[k];
+        let (dir, density) = sun.sample([u1, u2]);
+        let pdf = match sun.is_delta() {
+            true => self.sun_probability[k],
+            false => self.sun_probability[k] * density,
+        };
+        (pdf.is_finite() && pdf > 0.0).then_some(LightSample {
+            dir,
+            distance: f32::INFINITY,
+            point: None,
+            pdf,
+            target: match sun.is_delta() {
+                true => LightTarget::Delta(self.sun_ids[k]),
+                false => LightTarget::Light(self.sun_ids[k]),
+            },
+            emission: sun.emission,
+        })
+    }
+
+    /// Whether some sun has a disc that a ray leaving the scene may meet.
+    #[inline]
+    pub fn has_sun_discs(&self) -> bool {
+        self.sun_discs
+    }
+
+    /// The suns' discs that unit `dir` lies in: each one's radiance and the density
+    /// with which [`sample`](Self::sample) picks `dir` by it (its MIS weight against
+    /// BSDF sampling is per sun, as each emitter's is).
+    #[inline]
+    pub fn suns_along(&self, dir: Vec3) -> impl Iterator<Item = (Vec3, f32)> + '_ {
+        self.suns
+            .iter()
+            .zip(&self.sun_probability)
+            .filter(move |(sun, _)| sun.contains(dir))
+            .map(move |(sun, p)| (sun.emission, p * sun.density(dir)))
+    }
+
+    /// The density with which [`sample`](Self::sample) picks `dir` towards a sun's
+    /// disc (0 without any).
+    #[inline]
+    pub fn pdf_suns(&self, dir: Vec3) -> f32 {
+        self.suns_along(dir).map(|(_, pdf)| pdf).sum()
+    }
+
+    /// The density with which [`sample`](Self::sample) picks `dir`, a direction
+    /// leaving the scene: by the sky or by a sun's disc.
+    #[inline]
+    pub fn pdf_far(&self, dir: Vec3) -> f32 {
+        let sky = self.pdf_sky(dir);
+        match self.sun_discs {
+            false => sky,
+            true => sky + self.pdf_suns(dir),
+        }
     }
 
     /// The radiance an emitter emits at barycentrics `b`.
@@ -793,6 +1073,6 @@ impl LightSampler {
         if density == 0.0 {
             return 0.0;
         }
-        (1.0 - self.sky_probability) * self.chosen(at, i) * density
+        self.local_probability * self.chosen(at, i) * density
     }
 }

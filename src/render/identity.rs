@@ -9,7 +9,7 @@ use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
 use crate::light::LightSamplerKind;
-use crate::scene::{CameraSettings, Material, MaterialMaps, Model, Scene, Texels};
+use crate::scene::{CameraSettings, Light, Material, MaterialMaps, Model, Scene, Texels};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
@@ -66,7 +66,7 @@ pub fn identity(
     // (the default with few emitters) has the identity, checkpoints and shards of
     // versions without the choice. The four-wide BVH with plane tests is `bvh4 2`:
     // the binary tree's `bvh` and the plane-less `bvh4` checkpoints are refused.
-    let light_sampler = match settings.light_sampler.resolve(scene.emitters.len()) {
+    let light_sampler = match settings.light_sampler.resolve(scene.light_choices()) {
         LightSamplerKind::Auto => unreachable!("resolved"),
         LightSamplerKind::Alias => None,
         LightSamplerKind::SolidAngle => Some("solid-angle"),
@@ -199,6 +199,24 @@ impl Fingerprint {
         self.0.update(&(n as u64).to_le_bytes());
     }
 
+    fn light(&mut self, light: &Light) {
+        match light {
+            Light::Point(point) => {
+                self.u32s([if point.spot.is_some() { 2 } else { 0 }]);
+                self.vec3s([&point.position, &point.intensity]);
+                if let Some(cone) = &point.spot {
+                    self.vec3s([&cone.axis]);
+                    self.f32s([cone.cos_inner, cone.cos_outer]);
+                }
+            }
+            Light::Directional(sun) => {
+                self.u32s([1]);
+                self.vec3s([&sun.direction, &sun.irradiance]);
+                self.f32s([sun.half_angle]);
+            }
+        }
+    }
+
     fn material(&mut self, m: &Material) {
         // Destructured whole: a new field fails to compile here until it is hashed.
         let Material {
@@ -272,7 +290,7 @@ impl Fingerprint {
 
 /// A fingerprint (XXH3, 64 bits) of every value in the scene that shapes the image:
 /// vertices, normals, texture coordinates, triangles and their materials, the
-/// materials' numbers, and the textures' texels.
+/// materials' numbers, the textures' texels, and the placed lights.
 pub fn scene_hash(scene: &Scene) -> u64 {
     let mut h = Fingerprint(Xxh3::new());
     let m = &scene.mesh;
@@ -309,6 +327,14 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     }
     if let Some(sky) = &scene.sky {
         h.u32s(sky.identity_words());
+    }
+    // Only scenes with lights that are not geometry hash them, so that the others keep
+    // their fingerprint (area lights are triangles, hashed with the mesh).
+    if !scene.lights.is_empty() {
+        h.len(scene.lights.len());
+        for light in &scene.lights {
+            h.light(light);
+        }
     }
     // Only instanced scenes hash their placements, so that plain scenes keep the
     // fingerprint they had before instancing existed.

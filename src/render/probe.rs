@@ -28,7 +28,8 @@ pub struct CameraProbe {
     /// winding's normal).
     pub back_faces: u32,
     /// Of the hits, those from which a shadow ray reached a point of an emitter;
-    /// `None` when the scene has a sky or no emitter (a sky lights whatever sees it).
+    /// `None` when the scene has a sky or no emitter (a sky lights whatever sees it),
+    /// or placed points, spots or suns, which the probe does not look for.
     pub lit: Option<u32>,
 }
 
@@ -53,7 +54,8 @@ pub fn probe_camera<A: Accel>(
 ) -> CameraProbe {
     let mut probe = CameraProbe {
         rays: GRID * GRID,
-        lit: (scene.sky.is_none() && !scene.emitters.is_empty()).then_some(0),
+        lit: (scene.sky.is_none() && !scene.emitters.is_empty() && scene.lights.is_empty())
+            .then_some(0),
         ..CameraProbe::default()
     };
     let mut rng = Rng::seeded(0x5eed);

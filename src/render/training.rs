@@ -37,7 +37,7 @@ use crate::integrator::{PathTracer, RayCount};
 use crate::scene::Camera;
 
 /// Records of one batch of tiles, as far as there are more tiles than workers: 655k,
-/// about 50 MB (40 bytes each, and 36 more while they are folded: the leaves each goes
+/// about 50 MB (40 bytes each, and 40 more while they are folded: the leaves each goes
 /// to, and its direction and values copied into its leaf's group; see
 /// [`SdTree::deposit_all`]). Two batches are held at once, one folded while the next
 /// renders: about 100 MB.

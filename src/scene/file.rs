@@ -1,6 +1,6 @@
 //! Scene files (TOML, read with `serde` and `toml`): the OBJs of a scene with their
-//! transforms, further instances of them, named cameras, the environment and the
-//! render settings.
+//! transforms, further instances of them, the lights it places
+//! ([`super::light_table`]), named cameras, the environment and the render settings.
 //!
 //! The geometry is this module's to load ([`SceneFile::load_scene`]); the settings,
 //! cameras and environment are handed on as [`Setting`]s (key, value, position) for
@@ -15,7 +15,8 @@ use glam::{Affine3A, Mat4, Quat, Vec3};
 use serde::Deserialize;
 use toml::Spanned;
 
-use super::{load_obj_with, place, LoadOptions, LoadReport, Scene};
+use super::light_table::{read_light, LightEntry, PlacedLight, SceneLight};
+use super::{area_light_scene, load_obj_with, place, AreaLight, LoadOptions, LoadReport, Scene};
 use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
 use crate::io::InputFile;
 use crate::limits::{check_fits, human_bytes};
@@ -95,6 +96,8 @@ pub struct SceneFile {
     pub environment: Vec<Setting>,
     /// `[camera.NAME]` tables, by name.
     pub cameras: BTreeMap<String, Vec<Setting>>,
+    /// `[[light]]` tables, in order.
+    pub lights: Vec<SceneLight>,
 }
 
 type Table = BTreeMap<Spanned<String>, Spanned<toml::Value>>;
@@ -112,34 +115,36 @@ struct Document {
     obj: Vec<Spanned<Entry>>,
     #[serde(default)]
     instance: Vec<Spanned<Entry>>,
+    #[serde(default)]
+    light: Vec<Spanned<LightEntry>>,
 }
 
 /// An `[[obj]]` (with `file`, and a `name` for instances to refer to) or an
 /// `[[instance]]` (with `obj`, the name), and its transform.
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields, rename_all = "kebab-case")]
-struct Entry {
-    file: Option<Spanned<String>>,
-    name: Option<Spanned<String>>,
-    obj: Option<Spanned<String>>,
-    translate: Option<Spanned<[f32; 3]>>,
-    rotate: Option<Spanned<Rotation>>,
-    scale: Option<Spanned<Scale>>,
+pub(super) struct Entry {
+    pub(super) file: Option<Spanned<String>>,
+    pub(super) name: Option<Spanned<String>>,
+    pub(super) obj: Option<Spanned<String>>,
+    pub(super) translate: Option<Spanned<[f32; 3]>>,
+    pub(super) rotate: Option<Spanned<Rotation>>,
+    pub(super) scale: Option<Spanned<Scale>>,
     /// Row-major, acting on column vectors (as Mitsuba's `matrix`); the last row is
     /// `0 0 0 1`.
-    matrix: Option<Spanned<[[f32; 4]; 4]>>,
+    pub(super) matrix: Option<Spanned<[[f32; 4]; 4]>>,
 }
 
-#[derive(Deserialize)]
+#[derive(Clone, Deserialize)]
 #[serde(deny_unknown_fields)]
-struct Rotation {
-    axis: [f32; 3],
-    degrees: f32,
+pub(super) struct Rotation {
+    pub(super) axis: [f32; 3],
+    pub(super) degrees: f32,
 }
 
-#[derive(Deserialize)]
+#[derive(Clone, Deserialize)]
 #[serde(untagged)]
-enum Scale {
+pub(super) enum Scale {
     Uniform(f32),
     Axes([f32; 3]),
 }
@@ -177,6 +182,7 @@ impl SceneFile {
             render: Vec::new(),
             environment: Vec::new(),
             cameras: BTreeMap::new(),
+            lights: Vec::new(),
         };
         let document: Document = toml::from_str(&file.text).map_err(|e| {
             let span = e.span().unwrap_or(0..0);
@@ -208,6 +214,10 @@ impl SceneFile {
         }
         for entry in document.instance {
             file.add_instance(entry)?;
+        }
+        for entry in document.light {
+            let light = read_light(&file, entry)?;
+            file.lights.push(light);
         }
         if file.objs.is_empty() {
             return Err(file.error(0..0, "obj", "the scene has no [[obj]] to render"));
@@ -316,7 +326,7 @@ impl SceneFile {
 
     /// An entry's transform: `matrix`, or translate · rotate · scale (applied to the
     /// OBJ's points in the order scale, rotate, translate).
-    fn transform(&self, entry: &Entry, table: &str) -> Result<Affine3A, SceneFileError> {
+    pub(super) fn transform(&self, entry: &Entry, table: &str) -> Result<Affine3A, SceneFileError> {
         let trs = entry.translate.is_some() || entry.rotate.is_some() || entry.scale.is_some();
         let finite = |v: &[f32]| v.iter().all(|x| x.is_finite());
         if let Some(m) = &entry.matrix {
@@ -397,7 +407,8 @@ impl SceneFile {
     /// Loads each OBJ once and places it wherever the file says, by instances: the
     /// scene holds each OBJ's mesh once (see [`super::place`]). A file of one OBJ placed
     /// once without a transform gives that OBJ's scene as `ember render OBJ` loads it,
-    /// value for value.
+    /// value for value. The area lights are one more mesh, placed once where they are;
+    /// the other lights join the placed scenes' own [`Scene::lights`].
     pub fn load_scene(&self, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneFileError> {
         // The placements alone, before any OBJ is read; all of it once they are.
         self.check_memory(&[])?;
@@ -407,9 +418,38 @@ impl SceneFile {
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
             loaded.push(scene);
         }
+        let (mut scene, mut report) = self.place_objs(loaded)?;
+        scene
+            .lights
+            .extend(self.lights.iter().filter_map(|l| match l.light {
+                PlacedLight::Light(light) => Some(light),
+                PlacedLight::Area(_) => None,
+            }));
+        report.lights = self.lights.len();
+        Ok((scene, report))
+    }
+
+    /// The area lights, and the names of their materials.
+    fn area_lights(&self) -> (Vec<AreaLight>, Vec<String>) {
+        self.lights
+            .iter()
+            .enumerate()
+            .filter_map(|(i, l)| match l.light {
+                PlacedLight::Area(area) => Some((area, l.label(i))),
+                PlacedLight::Light(_) => None,
+            })
+            .unzip()
+    }
+
+    /// The loaded OBJs placed as the file says, with the area lights.
+    fn place_objs(
+        &self,
+        mut loaded: Vec<(Scene, LoadReport)>,
+    ) -> Result<(Scene, LoadReport), SceneFileError> {
+        let (areas, names) = self.area_lights();
         let identity_once =
             self.placements.len() == 1 && self.placements[0].transform == Affine3A::IDENTITY;
-        if identity_once {
+        if identity_once && areas.is_empty() {
             return Ok(loaded.pop().expect("one OBJ"));
         }
         let mut report = LoadReport::default();
@@ -420,10 +460,11 @@ impl SceneFile {
             report.vertex_colours = report.vertex_colours.or(r.vertex_colours);
             report.warnings.extend(r.warnings.iter().cloned());
         }
-        let scenes: Vec<&Scene> = loaded.iter().map(|(scene, _)| scene).collect();
+        let mut scenes: Vec<&Scene> = loaded.iter().map(|(scene, _)| scene).collect();
         self.check_memory(&scenes)?;
         self.check_carried(&loaded)?;
-        let instances = self
+        let area_scene = (!areas.is_empty()).then(|| area_light_scene(&areas, &names));
+        let mut instances: Vec<Instance> = self
             .placements
             .iter()
             .map(|p| Instance {
@@ -431,6 +472,14 @@ impl SceneFile {
                 transform: p.transform,
             })
             .collect();
+        if let Some(lights) = &area_scene {
+            report.materials += lights.materials.len();
+            instances.push(Instance {
+                mesh: scenes.len() as u32,
+                transform: Affine3A::IDENTITY,
+            });
+            scenes.push(lights);
+        }
         // The transforms were checked as they were read: finite, non-zero scales.
         let scene =
             place(&scenes, instances).map_err(|e| self.error(0..0, "instance", &e.to_string()))?;
@@ -506,9 +555,17 @@ impl SceneFile {
 
     /// Bytes of memory placing the loaded OBJs `loaded` (one per [`SceneFile::objs`];
     /// an empty list counts the placements alone) and rendering them holds
-    /// ([`placement_memory_bytes`]).
+    /// ([`placement_memory_bytes`]), with the area lights' mesh, placed once.
     pub fn load_memory_bytes(&self, loaded: &[&Scene]) -> u64 {
-        placement_memory_bytes(loaded, self.placements.iter().map(|p| p.obj))
+        let objs = placement_memory_bytes(loaded, self.placements.iter().map(|p| p.obj));
+        let (areas, _) = self.area_lights();
+        if areas.is_empty() {
+            return objs;
+        }
+        // Three corners of its own per triangle, each triangle an emitter.
+        let triangles: u64 = areas.iter().map(|a| a.triangle_count() as u64).sum();
+        let mesh = (3 * triangles * 32 + triangles * 16) * 2;
+        objs + mesh + MEMORY_PER_PLACEMENT + triangles * MEMORY_PER_PLACED_EMITTER
     }
 }
 

@@ -261,6 +261,14 @@ pub fn place(scenes: &[&Scene], instances: Vec<Instance>) -> Result<Scene, Insta
             }
         })
         .collect();
+    // Each placement of a scene places its lights that are not geometry too.
+    scene.lights = instances
+        .iter()
+        .flat_map(|i| {
+            let lights = &scenes[i.mesh as usize].lights;
+            lights.iter().map(|l| l.transformed(&i.transform))
+        })
+        .collect();
     let instancing = Instancing::new(&scene.mesh, &scene.materials, parts, instances);
     scene.emitters = (0..instancing.lights.triangles.len() as u32).collect();
     scene.instancing = Some(Arc::new(instancing));

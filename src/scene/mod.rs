@@ -1,6 +1,7 @@
-//! A renderable scene: one triangle mesh, its materials and textures, and the list of
-//! emissive triangles. Immutable once built.
+//! A renderable scene: one triangle mesh, its materials and textures, the list of
+//! emissive triangles, and the lights that are not geometry. Immutable once built.
 
+mod area_lights;
 mod asset_paths;
 mod camera;
 mod compose;
@@ -8,6 +9,8 @@ mod cutout;
 mod environment;
 mod file;
 mod instances;
+mod light_table;
+mod lights;
 mod material;
 mod mesh;
 mod mtl;
@@ -21,6 +24,9 @@ mod texture_files;
 mod texture_image;
 mod warnings;
 
+pub use area_lights::{
+    area_light_scene, AreaEmission, AreaLight, AreaShape, DISK_SEGMENTS, SPHERE_SUBDIVISIONS,
+};
 pub use camera::{Camera, CameraSettings, Lens};
 pub use compose::{compose, mirrors, Placement};
 pub use cutout::{coin, Opacity, PartOpacity};
@@ -30,6 +36,11 @@ pub use file::{
     Setting, MEMORY_PER_PLACEMENT,
 };
 pub use instances::{place, Instancing, MeshPart};
+pub use light_table::{PlacedLight, SceneLight};
+pub use lights::{
+    intensity_from_candela, intensity_from_power, irradiance_from_lux, DirectionalLight, Light,
+    PointLight, SpotCone, LUMENS_PER_WATT, MAX_SPOT_ANGLE,
+};
 pub use material::{
     alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
 };
@@ -125,6 +136,9 @@ pub struct Scene {
     /// Where the distinct meshes of `mesh` stand, when they are placed by instances
     /// rather than baked into world space (see [`place`]); `None` for a plain scene.
     pub instancing: Option<Arc<Instancing>>,
+    /// Lights that are not geometry (points, spots, directions), which only light
+    /// samples reach; area lights are emissive triangles of `mesh` instead.
+    pub lights: Vec<Light>,
 }
 
 impl Scene {
@@ -150,7 +164,15 @@ impl Scene {
             emitters,
             sky: None,
             instancing: None,
+            lights: Vec::new(),
         }
+    }
+
+    /// How many lights the light sampler chooses among by its table or tree: the
+    /// emissive triangles and the point and spot lights (suns are chosen with the sky).
+    pub fn light_choices(&self) -> usize {
+        let points = self.lights.iter().filter(|l| matches!(l, Light::Point(_)));
+        self.emitters.len() + points.count()
     }
 
     pub fn material(&self, surface: &SurfacePoint) -> &Material {

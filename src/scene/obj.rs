@@ -33,6 +33,8 @@ pub struct LoadReport {
     pub vertices: usize,
     pub materials: usize,
     pub emitters: usize,
+    /// Lights a scene file places (`[[light]]`), area lights among them.
+    pub lights: usize,
     /// Zero-area (or otherwise degenerate) triangles that were dropped.
     pub degenerate_dropped: usize,
     /// How the file wrote its vertex colours (`v x y z r g b`), if it has them.
@@ -43,8 +45,9 @@ pub struct LoadReport {
 }
 
 impl LoadReport {
-    /// `12 triangles, 3 materials, 2 emissive triangles, vertex colours (0-255), 1 warning`:
-    /// the counts, with the vertex colours and the warnings where there are any.
+    /// `12 triangles, 3 materials, 2 emissive triangles, 1 placed light, vertex colours
+    /// (0-255), 1 warning`: the counts, with the placed lights, the vertex colours and
+    /// the warnings where there are any.
     pub fn summary(&self) -> String {
         let colours = self.vertex_colours.map_or(String::new(), |c| {
             format!(", vertex colours ({})", c.range())
@@ -54,8 +57,13 @@ impl LoadReport {
             1 => ", 1 warning".to_owned(),
             n => format!(", {n} warnings"),
         };
+        let lights = match self.lights {
+            0 => String::new(),
+            1 => ", 1 placed light".to_owned(),
+            n => format!(", {n} placed lights"),
+        };
         format!(
-            "{} triangles, {} materials, {} emissive triangles{colours}{warnings}",
+            "{} triangles, {} materials, {} emissive triangles{lights}{colours}{warnings}",
             self.triangles, self.materials, self.emitters
         )
     }

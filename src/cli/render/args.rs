@@ -129,10 +129,10 @@ pub struct RenderArgs {
     pub time_limit: Option<f64>,
 
     /// Radiance of a uniform sky, R,G,B [default: 0,0,0, or 1,1,1 in a scene without
-    /// emitters].
+    /// emitters or placed lights].
     ///
-    /// A scene without any emissive material would render black, so it is lit by a
-    /// white sky unless a sky is given.
+    /// A scene without any emissive material or placed light would render black, so it
+    /// is lit by a white sky unless a sky is given.
     #[arg(long, value_name = "R,G,B", value_parser = parse_background, allow_hyphen_values = true, conflicts_with = "env", help_heading = LIGHTS)]
     pub background: Option<Vec3>,
     /// Light the scene with an equirectangular environment map (EXR or HDR).

@@ -8,7 +8,9 @@ use glam::Vec3;
 
 use super::plan::{CameraRequest, RenderPlan};
 use ember::embree::Device;
-use ember::scene::{load_obj_with, Camera, CameraSettings, Environment, LoadReport, Scene};
+use ember::scene::{
+    load_obj_with, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
+};
 
 /// The byte count in environment variable `name`, if set; anything but a whole number
 /// is an error rather than silently ignored.
@@ -53,6 +55,8 @@ pub struct LoadedScene {
     /// Whether ember chose the eye or the point looked at (no --eye or --look-at).
     pub automatic_camera: bool,
     pub camera: Camera,
+    /// The lights the scene file places (`ember info`).
+    pub placed_lights: Vec<SceneLight>,
 }
 
 /// The camera the flags ask for, what they leave out framing the scene's bounds.
@@ -79,7 +83,11 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         Some(file) => file.load_scene(&plan.load)?,
         None => load_obj_with(&plan.scene, &plan.load)?,
     };
-    let unlit = scene.emitters.is_empty() && plan.background.is_none() && plan.env.is_none();
+    // A placed light of any kind lights the scene: no default sky then.
+    let unlit = scene.emitters.is_empty()
+        && scene.lights.is_empty()
+        && plan.background.is_none()
+        && plan.env.is_none();
     scene.sky = match (&plan.env, plan.background) {
         (Some(env), _) => Some(Environment::load(&env.path, env.scale, env.rotate)?),
         (None, Some(b)) if b != Vec3::ZERO => Some(Environment::constant(b)),
@@ -96,7 +104,7 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         ),
         (None, Some(b)) if b != Vec3::ZERO => format!("uniform, radiance {},{},{}", b.x, b.y, b.z),
         (None, None) if unlit => {
-            "uniform white (the scene has no emitter; --background sets another)".to_owned()
+            "uniform white (the scene has no emitter and no placed light; --background sets another)".to_owned()
         }
         _ => "none".to_owned(),
     };
@@ -111,5 +119,9 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         sky,
         automatic_camera: request.eye.is_none() || request.look_at.is_none(),
         camera,
+        placed_lights: plan
+            .scene_file
+            .as_ref()
+            .map_or_else(Vec::new, |file| file.lights.clone()),
     })
 }

@@ -24,7 +24,7 @@ pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&Ca
     }
     if loaded.unlit {
         eprintln!(
-            "note: the scene has no emissive material: it is lit by a white sky (see --background)"
+            "note: the scene has no emissive material and no placed light: it is lit by a white sky (see --background)"
         );
     }
     let dropped = match report.degenerate_dropped {
