@@ -1,7 +1,7 @@
 //! Fuzzing scene files on the stable toolchain (proptest): text made of scene-file
 //! pieces (tables, every key of `[render]`, `[environment]` and `[camera.NAME]`, the
-//! entries' transforms with values at the edge of `f32`, values of every TOML type,
-//! broken syntax, stray bytes).
+//! entries' transforms with values at the edge of `f32`, `[[light]]` tables of every
+//! type and key, values of every TOML type, broken syntax, stray bytes).
 //!
 //! What must hold: the reader and the loader never panic, and every error is one line
 //! `FILE:LINE:COLUMN: KEY: ...` inside the file; a scene that loads is placed within
@@ -108,6 +108,45 @@ const KEYS: [&str; 34] = [
     "zoom",
 ];
 
+/// The keys of `[[light]]` tables, and its types (with one it lacks).
+const LIGHT_KEYS: [&str; 15] = [
+    "intensity",
+    "power",
+    "candela",
+    "irradiance",
+    "lux",
+    "radiance",
+    "inner-angle",
+    "outer-angle",
+    "angular-diameter",
+    "radius",
+    "size",
+    "direction",
+    "color",
+    "type",
+    "name",
+];
+const LIGHT_TYPES: [&str; 7] = [
+    "point",
+    "spot",
+    "directional",
+    "quad",
+    "disk",
+    "sphere",
+    "lamp",
+];
+
+/// A `[[light]]` table's pieces: its header, a type, and its keys with values of any
+/// kind.
+fn light_piece() -> impl Strategy<Value = String> {
+    prop_oneof![
+        Just("[[light]]\n".to_string()),
+        prop::sample::select(&LIGHT_TYPES[..]).prop_map(|t| format!("[[light]]\ntype = \"{t}\"\n")),
+        (prop::sample::select(&LIGHT_KEYS[..]), number()).prop_map(|(k, v)| format!("{k} = {v}\n")),
+        (prop::sample::select(&LIGHT_KEYS[..]), value()).prop_map(|(k, v)| format!("{k} = {v}\n")),
+    ]
+}
+
 fn piece() -> impl Strategy<Value = String> {
     let obj = cornell();
     let vec3 = (number(), number(), number()).prop_map(|(a, b, c)| format!("[{a}, {b}, {c}]"));
@@ -133,6 +172,7 @@ fn piece() -> impl Strategy<Value = String> {
         matrix.prop_map(|m| format!("matrix = [{m}]\n")),
         (prop::sample::select(&KEYS[..]), value()).prop_map(|(k, v)| format!("{k} = {v}\n")),
         Just("translate = \"far\"\n".to_string()),
+        light_piece(),
         Just("[[obj\n".to_string()),
         Just("= 3\n".to_string()),
         Just("é = \"ü\"\n".to_string()),
