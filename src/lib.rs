@@ -28,3 +28,4 @@ pub mod limits;
 pub mod render;
 pub mod sampling;
 pub mod scene;
+pub mod wavefront;

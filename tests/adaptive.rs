@@ -41,6 +41,7 @@ fn settings(size: u32, spp: u32, adaptive: Option<Adaptive>) -> RenderSettings {
         light_sampler: Default::default(),
         adaptive,
         guiding: None,
+        engine: Default::default(),
     }
 }
 

@@ -68,6 +68,7 @@ fn film_of(built: &Built, samples: std::ops::Range<u32>, seed: u64, max_depth: u
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let stop = AtomicUsize::new(0);
     let control = RenderControl {

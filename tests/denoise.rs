@@ -199,6 +199,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
             light_sampler: Default::default(),
             adaptive: None,
             guiding: None,
+            engine: Default::default(),
         };
         let control = RenderControl {
             stop: &AtomicUsize::new(0),

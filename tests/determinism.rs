@@ -82,6 +82,7 @@ fn image<A: Accel>(
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let (film, _) = pool.install(|| render(scene, accel, &camera, &settings, &|_| {}));
     film.pixels

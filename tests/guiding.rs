@@ -809,6 +809,7 @@ fn guided_settings(size: u32, spp: u32, iterations: u32) -> RenderSettings {
         adaptive: None,
         light_sampler: Default::default(),
         guiding: Some(Guiding { iterations }),
+        engine: Default::default(),
     }
 }
 
@@ -1037,6 +1038,7 @@ fn guided_renders_resume_and_merge_to_the_uninterrupted_film() {
     // And the guide matters: the unguided film differs.
     let unguided = RenderSettings {
         guiding: None,
+        engine: Default::default(),
         ..settings
     };
     assert_ne!(

@@ -282,6 +282,7 @@ fn trained_guide<A: Accel>(
         adaptive: None,
         light_sampler: Default::default(),
         guiding: Some(guiding),
+        engine: Default::default(),
     };
     let camera = (scene.camera)(128);
     let stop = AtomicUsize::new(0);

@@ -812,6 +812,7 @@ fn the_default_is_the_bvh_from_a_measured_emitter_count() {
             light_sampler,
             adaptive: None,
             guiding: None,
+            engine: Default::default(),
         };
         identity(
             &built.scene,

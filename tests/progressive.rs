@@ -48,6 +48,7 @@ fn fixture() -> Fixture {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     Fixture {
         camera: camera_settings.camera(settings.width, settings.height),

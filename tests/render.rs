@@ -55,6 +55,7 @@ fn settings(size: u32, spp: u32, max_depth: u32) -> RenderSettings {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     }
 }
 

@@ -31,6 +31,7 @@ fn same_seed_same_image_with_either_backend() {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let device = Device::new("").unwrap();
     let (m, t) = (&scene.mesh.positions, &scene.mesh.triangles);

@@ -454,6 +454,7 @@ fn a_killed_render_leaves_a_whole_checkpoint() {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let camera = CameraSettings::framing(lo, hi, 40.0);
     let identity = ember::render::identity(&scene, &camera, &settings, AccelKind::Embree);

@@ -123,6 +123,7 @@ fn merged_films_equal_one_process_at_any_number_of_shards() {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let camera = CameraSettings::framing(lo, hi, 40.0).camera(settings.width, settings.height);
     let stop = std::sync::atomic::AtomicUsize::new(0);

@@ -52,6 +52,7 @@ fn shoot(built: &Built, lens: Lens, spp: u32) -> Image {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let camera = camera(lens).camera(SIZE, SIZE);
     render(&built.scene, &built.accel, &camera, &settings, &|_| {}).0
@@ -171,6 +172,7 @@ fn a_lens_is_part_of_the_render_identity_and_a_pinhole_is_not_named() {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let id = |lens: Lens| {
         ember::render::identity(

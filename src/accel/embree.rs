@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::{Accel, Hit, HitFilter, Instance, Ray};
+use super::{Accel, Hit, HitFilter, Hits16, Instance, Ray, Rays16, PACKET};
 use crate::embree::{BuildQuality, Device, EmbreeError, Scene};
 
 /// A triangle mesh committed to Embree, which reads the mesh's own arrays for `'m`
@@ -95,5 +95,21 @@ impl Accel for EmbreeBackend<'_> {
 
     fn memory_bytes(&self) -> usize {
         self.scene.memory_bytes()
+    }
+
+    #[inline]
+    fn intersect16(
+        &self,
+        active: &[bool; PACKET],
+        rays: &Rays16,
+        hits: &mut Hits16,
+        coherent: bool,
+    ) {
+        self.scene.intersect16(active, rays, hits, coherent);
+    }
+
+    #[inline]
+    fn occluded16(&self, active: &[bool; PACKET], rays: &Rays16) -> [bool; PACKET] {
+        self.scene.occluded16(active, rays)
     }
 }

@@ -127,6 +127,26 @@ pub enum IntegratorArg {
     Mis,
 }
 
+/// `--engine`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum EngineArg {
+    /// One path at a time: every feature.
+    Scalar,
+    /// Sixteen paths at a time in SIMD lanes, rays as Embree packets. For now it
+    /// renders untextured, opaque Lambert scenes lit by their emitters through a
+    /// pinhole with `--integrator mis`, without passes, denoising or guiding.
+    Wavefront,
+}
+
+impl From<EngineArg> for ember::render::Engine {
+    fn from(e: EngineArg) -> Self {
+        match e {
+            EngineArg::Scalar => ember::render::Engine::Scalar,
+            EngineArg::Wavefront => ember::render::Engine::Wavefront,
+        }
+    }
+}
+
 /// `--light-sampler`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum LightSamplerArg {

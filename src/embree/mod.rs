@@ -11,6 +11,7 @@
 mod direct;
 mod filter;
 mod instance;
+mod packet;
 mod sys;
 
 pub use direct::{raw_rays, RawRay};

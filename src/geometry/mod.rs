@@ -9,11 +9,13 @@
 
 mod filter;
 mod instance;
+mod packet;
 
 pub use filter::{HitFilter, Opaque};
 pub use instance::{
     object_ray, object_transforms, Instance, InstanceError, MAX_RAY_COORDINATE, RAY_REACH,
 };
+pub use packet::{Hits16, Rays16, PACKET};
 
 use glam::Vec3;
 

@@ -117,6 +117,11 @@ pub fn identity(
             ),
         ));
     }
+    // Only the wavefront is named, so that the scalar loop's renders keep their
+    // identity: the engines draw their samples' numbers differently.
+    if settings.engine == super::Engine::Wavefront {
+        pairs.push(("engine", "wavefront 1".to_owned()));
+    }
     if let Some(name) = light_sampler {
         // After the integrator, as where it was first added.
         pairs.insert(5, ("light-sampler", name.to_owned()));

@@ -38,6 +38,7 @@ use crate::integrator::{IntegratorKind, PathTracer, RayCount};
 use crate::light::LightSamplerKind;
 use crate::sampling::Rng;
 use crate::scene::{Camera, Scene};
+use crate::wavefront::{LaneScene, Wavefront};
 
 /// Edge length of the square tiles the image is split into for the workers.
 pub const TILE_SIZE: u32 = 16;
@@ -56,6 +57,19 @@ pub struct RenderSettings {
     pub adaptive: Option<Adaptive>,
     /// Path guiding, trained before rendering; `None`: unguided.
     pub guiding: Option<Guiding>,
+    /// Which engine traces the paths.
+    pub engine: Engine,
+}
+
+/// Which engine traces a render's paths.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Engine {
+    /// One path at a time, every feature.
+    #[default]
+    Scalar,
+    /// Sixteen paths at a time in SIMD lanes ([`crate::wavefront`]); renders only what
+    /// [`LaneScene::new`] accepts, which the caller checks first.
+    Wavefront,
 }
 
 /// What a render cost.
@@ -277,8 +291,22 @@ pub fn render_progressive<A: Accel>(
             on_guide(tree);
         }
         let tracer = tracer.with_guide(trained.as_ref().map(|t| &t.0));
+        let lanes = (settings.engine == Engine::Wavefront).then(|| {
+            LaneScene::new(scene).expect("the caller checks that the wavefront renders the scene")
+        });
+        let wavefront = lanes.as_ref().map(|lanes| Wavefront {
+            scene: lanes,
+            accel,
+            camera: camera
+                .pinhole()
+                .expect("the wavefront's camera is a pinhole"),
+            image_width: settings.width,
+            max_depth: settings.max_depth,
+            seed: settings.seed,
+        });
         let passes = Passes {
             tracer: &tracer,
+            wavefront,
             camera,
             settings,
             film: &tiled,
@@ -394,6 +422,8 @@ impl TiledFilm<'_> {
 /// The passes of a progressive render over the tiles of one film.
 struct Passes<'a, A: Accel> {
     tracer: &'a PathTracer<'a, A>,
+    /// The engine that renders the passes in lanes instead, when chosen.
+    wavefront: Option<Wavefront<'a, A>>,
     camera: &'a Camera,
     settings: &'a RenderSettings,
     film: &'a TiledFilm<'a>,
@@ -577,6 +607,10 @@ impl<A: Accel> Passes<'_, A> {
     /// early when asked). Returns rays traced, samples dropped as NaN/infinite, and
     /// samples taken.
     fn render_tile(&self, tile: &mut FilmTile, target: u32) -> (u64, u64, u64) {
+        if let Some(wavefront) = &self.wavefront {
+            let cost = wavefront.render_tile(tile, self.film.samples.start, target);
+            return (cost.rays, cost.dropped, cost.taken);
+        }
         let (x0, y0, w, _) = tile.rect;
         let mut count = RayCount::default();
         let mut dropped = 0;

@@ -66,6 +66,19 @@ pub struct Camera {
     focus_distance: f32,
 }
 
+/// A pinhole camera's frame: the ray through image position `(x, y)` leaves `eye`
+/// along `forward + sx·right + sy·up` (normalised), `sx = 2x/width − 1`,
+/// `sy = 1 − 2y/height`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pinhole {
+    pub eye: Vec3,
+    pub forward: Vec3,
+    pub right: Vec3,
+    pub up: Vec3,
+    pub width: f32,
+    pub height: f32,
+}
+
 impl CameraSettings {
     /// A view of the box `lo..hi` from its +z side (OBJ scenes are y-up), far enough
     /// back that the whole box fits in the vertical field of view.
@@ -158,6 +171,19 @@ impl Camera {
         let sy = 1.0 - 2.0 * y / self.height;
         let dir = (self.forward + sx * self.right + sy * self.up).normalize();
         Ray::new(self.eye, dir)
+    }
+
+    /// What [`ray`](Self::ray) computes with, for code that makes camera rays in
+    /// lanes: `None` for a thin lens.
+    pub fn pinhole(&self) -> Option<Pinhole> {
+        (!self.has_lens()).then_some(Pinhole {
+            eye: self.eye,
+            forward: self.forward,
+            right: self.right,
+            up: self.up,
+            width: self.width,
+            height: self.height,
+        })
     }
 
     /// Whether rays come from a lens disk (then [`lens_ray`](Self::lens_ray) takes

@@ -27,7 +27,7 @@ mod warnings;
 pub use area_lights::{
     area_light_scene, AreaEmission, AreaLight, AreaShape, DISK_SEGMENTS, SPHERE_SUBDIVISIONS,
 };
-pub use camera::{Camera, CameraSettings, Lens};
+pub use camera::{Camera, CameraSettings, Lens, Pinhole};
 pub use compose::{compose, mirrors, Placement};
 pub use cutout::{coin, Opacity, PartOpacity};
 pub use environment::{Environment, SkySample};

@@ -98,6 +98,7 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let (film, stats) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(film.pixels.iter().all(|p| p.is_finite()));

@@ -213,5 +213,6 @@ pub fn small_mis_settings() -> ember::render::RenderSettings {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     }
 }

@@ -2,7 +2,7 @@
 //! Embree quality, then primary, diffuse and shadow throughput through the single-ray
 //! API (every backend), Embree's 8-ray packets, and Embree called directly.
 
-use ember::accel::{Accel, Bvh, BvhError, EmbreeAccel, Ray};
+use ember::accel::{Accel, Bvh, BvhError, EmbreeAccel, Hits16, Ray, Rays16, PACKET};
 use ember::embree::{raw_rays, BuildQuality, Device, EmbreeError, RawRay, PACKET_WIDTH};
 use ember::scene::CameraSettings;
 
@@ -118,6 +118,37 @@ fn count_occluded8(accel: &EmbreeAccel, rays: &[Ray]) -> usize {
                 .scene()
                 .occluded8(packet, &mut occluded[..packet.len()]);
             occluded[..packet.len()].iter().filter(|&&o| o).count()
+        })
+        .sum()
+}
+
+/// Hits of `rays` queried 16 at a time as the wavefront engine queries them
+/// ([`Accel::intersect16`]: Embree's `rtcIntersect16`).
+fn count_hits16<A: Accel>(accel: &A, rays: &[Ray], coherent: bool) -> usize {
+    let (mut packet, mut hits) = (Rays16::default(), Hits16::default());
+    rays.chunks(PACKET)
+        .map(|chunk| {
+            let active = std::array::from_fn(|l| l < chunk.len());
+            for (l, ray) in chunk.iter().enumerate() {
+                packet.set(l, ray);
+            }
+            accel.intersect16(&active, &packet, &mut hits, coherent);
+            hits.found.iter().take(chunk.len()).filter(|&&f| f).count()
+        })
+        .sum()
+}
+
+/// Occluded rays of `rays`, 16 at a time ([`Accel::occluded16`]).
+fn count_occluded16<A: Accel>(accel: &A, rays: &[Ray]) -> usize {
+    let mut packet = Rays16::default();
+    rays.chunks(PACKET)
+        .map(|chunk| {
+            let active = std::array::from_fn(|l| l < chunk.len());
+            for (l, ray) in chunk.iter().enumerate() {
+                packet.set(l, ray);
+            }
+            let occluded = accel.occluded16(&active, &packet);
+            occluded.iter().filter(|&&o| o).count()
         })
         .sum()
 }
@@ -288,6 +319,15 @@ impl Recorder<'_> {
             }
             let traced = throughput(pool, &rays.shadow, min, |c| count_occluded8(embree, c));
             self.traced(row(Mode::Shadow, Api::Packet8), traced, memory);
+            for (mode, set, coherent) in [
+                (Mode::Primary, &rays.primary, true),
+                (Mode::Diffuse, &rays.diffuse, false),
+            ] {
+                let traced = throughput(pool, set, min, |c| count_hits16(embree, c, coherent));
+                self.traced(row(mode, Api::Packet16), traced, memory);
+            }
+            let traced = throughput(pool, &rays.shadow, min, |c| count_occluded16(embree, c));
+            self.traced(row(Mode::Shadow, Api::Packet16), traced, memory);
             let traced = throughput(pool, &empty, min, |c| count_hits(embree, c));
             self.traced(row(Mode::CallOverhead, Api::Single), traced, memory);
         }
@@ -376,6 +416,7 @@ mod tests {
             assert_eq!(wrapped, hits("bvh", mode, Api::Single), "{mode:?}");
             assert_eq!(wrapped, hits("embree", mode, Api::Direct), "{mode:?}");
             assert_eq!(wrapped, hits("embree", mode, Api::Packet8), "{mode:?}");
+            assert_eq!(wrapped, hits("embree", mode, Api::Packet16), "{mode:?}");
         }
         // The camera sees the sphere (diffuse rays leave a convex mesh and miss).
         assert!(hits("embree", Mode::Primary, Api::Single) > 0);

@@ -37,6 +37,8 @@ pub enum Api {
     Single,
     /// Embree's `rtcIntersect8` / `rtcOccluded8`.
     Packet8,
+    /// Embree's `rtcIntersect16` / `rtcOccluded16`, as the wavefront engine calls them.
+    Packet16,
     /// Embree called directly (rays in its own layout, bare `rtcIntersect1` calls), the
     /// baseline of the wrapper's cost.
     Direct,
@@ -47,6 +49,7 @@ impl Api {
         match self {
             Api::Single => "single",
             Api::Packet8 => "packet8",
+            Api::Packet16 => "packet16",
             Api::Direct => "direct",
         }
     }

@@ -8,8 +8,8 @@ use glam::Vec3;
 
 use super::super::tev::{parse_address, DisplayAddress};
 use super::super::{
-    parse_aov, parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, IntegratorArg,
-    LightSamplerArg, ToneArgs,
+    parse_aov, parse_fov, parse_seconds, parse_shard, parse_vec3, AccelArg, EngineArg,
+    IntegratorArg, LightSamplerArg, ToneArgs,
 };
 use ember::film::aov::Aov;
 use ember::guiding::MAX_ITERATIONS;
@@ -231,6 +231,14 @@ pub struct RenderArgs {
     /// The same seed gives the same image with either (up to floating-point ties).
     #[arg(long, value_enum, default_value_t = AccelArg::Embree, help_heading = ADVANCED)]
     pub accel: AccelArg,
+    /// Which engine traces the paths.
+    ///
+    /// `scalar`: one path at a time, every feature. `wavefront`: sixteen paths at a
+    /// time in SIMD lanes, their rays as Embree packets; for now it renders untextured,
+    /// opaque Lambert scenes lit by their emitters, through a pinhole, with
+    /// `--integrator mis`, without passes, denoising or guiding.
+    #[arg(long, value_enum, default_value_t = EngineArg::Scalar, help_heading = ADVANCED)]
+    pub engine: EngineArg,
     /// Worker threads [default: all cores].
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1024), help_heading = ADVANCED)]
     pub threads: Option<u32>,

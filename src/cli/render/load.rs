@@ -8,9 +8,12 @@ use glam::Vec3;
 
 use super::plan::{CameraRequest, RenderPlan};
 use ember::embree::Device;
+use ember::light::LightSamplerKind;
+use ember::render::Engine;
 use ember::scene::{
     load_obj_with, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
 };
+use ember::wavefront::LaneScene;
 
 /// The byte count in environment variable `name`, if set; anything but a whole number
 /// is an error rather than silently ignored.
@@ -77,6 +80,16 @@ fn camera_settings(request: &CameraRequest, scene: &Scene) -> Result<CameraSetti
     Ok(camera_settings)
 }
 
+/// Refuses a scene the wavefront engine does not render yet, in one line.
+fn check_wavefront(plan: &RenderPlan, scene: &Scene) -> Result<()> {
+    LaneScene::new(scene).map_err(anyhow::Error::msg)?;
+    let kind = plan.settings.light_sampler.resolve(scene.emitters.len());
+    if kind != LightSamplerKind::Alias {
+        bail!("--engine wavefront chooses emitters by an alias table only; this scene has enough emitters for the light BVH");
+    }
+    Ok(())
+}
+
 /// Loads the plan's scene, sets its sky and chooses its camera.
 pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let (mut scene, report) = match &plan.scene_file {
@@ -111,6 +124,9 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let request = &plan.camera;
     let camera_settings = camera_settings(request, &scene)?;
     let camera = camera_settings.camera(plan.settings.width, plan.settings.height);
+    if plan.settings.engine == Engine::Wavefront {
+        check_wavefront(plan, &scene)?;
+    }
     Ok(LoadedScene {
         scene,
         report,

@@ -19,7 +19,9 @@ use ember::film::checkpoint::{FilmReader, Header, Identity};
 use ember::film::shard_samples;
 use ember::guiding::Guiding;
 use ember::image::Tonemap;
-use ember::render::{self, Adaptive, RenderSettings, ResumedDefaults};
+use ember::integrator::IntegratorKind;
+use ember::light::LightSamplerKind;
+use ember::render::{self, Adaptive, Engine, RenderSettings, ResumedDefaults};
 use ember::scene::{Lens, LoadOptions, SceneFile};
 
 /// What the camera flags ask for; the defaults depend on the scene's bounds.
@@ -117,6 +119,7 @@ impl RenderPlan {
                     Some(iterations) => Guiding { iterations },
                     None => Guiding::for_spp(args.spp),
                 }),
+                engine: args.engine.into(),
             },
             camera: CameraRequest {
                 eye: args.eye,
@@ -177,6 +180,31 @@ impl RenderPlan {
         Ok(())
     }
 
+    /// Refuses the settings the wavefront engine does not render yet.
+    fn check_engine(&self) -> Result<()> {
+        if self.settings.engine != Engine::Wavefront {
+            return Ok(());
+        }
+        let s = &self.settings;
+        let refused = if s.integrator != IntegratorKind::Mis {
+            "an --integrator other than mis"
+        } else if s.guiding.is_some() {
+            "--guiding"
+        } else if !self.aovs.is_empty() || self.denoise {
+            "--aov or --denoise"
+        } else if !matches!(
+            s.light_sampler,
+            LightSamplerKind::Auto | LightSamplerKind::Alias
+        ) {
+            "a --light-sampler other than alias"
+        } else if self.camera.lens.aperture_radius > 0.0 {
+            "--aperture"
+        } else {
+            return Ok(());
+        };
+        bail!("--engine wavefront does not render with {refused} yet")
+    }
+
     /// Refuses what can be refused before loading anything: an unwritable or unknown
     /// output, bad environment, a missing checkpoint, an image too large for memory.
     pub fn check(&self) -> Result<()> {
@@ -189,6 +217,7 @@ impl RenderPlan {
                 bail!("--guide-pixel {x},{y} is outside the {w}x{h} image");
             }
         }
+        self.check_engine()?;
         // What is there but cannot be read (a folder, a named pipe) is refused by the
         // checkpoint's reader, saying what it is.
         if self.resume && !self.checkpoint.exists() {
