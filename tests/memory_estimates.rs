@@ -142,6 +142,7 @@ fn render<A: ember::accel::Accel>(scene: &ember::scene::Scene, accel: &A) {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     ember::render::render(scene, accel, &camera, &settings, &|_| {});
 }
