@@ -227,6 +227,7 @@ fn render_on<A: Accel>(scene: &Scene, accel: &A) -> Result<(), TestCaseError> {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     let (image, _) = render::render(scene, accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(image.pixels.iter().all(|p| p.is_finite()));
