@@ -97,7 +97,7 @@ impl Accel for EmbreeBackend<'_> {
         self.scene.memory_bytes()
     }
 
-    #[inline]
+    #[inline(always)]
     fn intersect16(
         &self,
         active: &[bool; PACKET],
@@ -108,7 +108,7 @@ impl Accel for EmbreeBackend<'_> {
         self.scene.intersect16(active, rays, hits, coherent);
     }
 
-    #[inline]
+    #[inline(always)]
     fn occluded16(&self, active: &[bool; PACKET], rays: &Rays16) -> [bool; PACKET] {
         self.scene.occluded16(active, rays)
     }

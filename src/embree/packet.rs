@@ -48,7 +48,7 @@ impl Scene<'_> {
     /// The nearest hits of the `active` lanes of `rays` as one packet; the other lanes
     /// of `hits` are misses. `coherent` hints that the rays are alike (camera rays).
     /// Inlined, so that its copies are compiled for the caller's instruction set.
-    #[inline]
+    #[inline(always)]
     pub fn intersect16(
         &self,
         active: &[bool; PACKET],
@@ -96,7 +96,7 @@ impl Scene<'_> {
     }
 
     /// Which `active` lanes of `rays` are blocked, as one packet; the others are not.
-    #[inline]
+    #[inline(always)]
     pub fn occluded16(&self, active: &[bool; PACKET], rays: &Rays16) -> [bool; PACKET] {
         let valid = valid_lanes(active, rays);
         let mut packet = raw_rays16(rays);

@@ -47,6 +47,7 @@ struct SobolPoint {
 }
 
 /// SplitMix64's finaliser: spreads nearby keys over the whole 64-bit range.
+#[inline]
 pub fn mix64(mut z: u64) -> u64 {
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

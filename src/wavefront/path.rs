@@ -174,15 +174,15 @@ impl<A: Accel> Tracer<'_, A> {
         let mut paths = Paths::empty();
         let mut sobol = SobolLanes::default();
         let (mut x, mut y) = (U32s::splat(0), U32s::splat(0));
+        let (mut pixels, mut indices) = ([0u64; W], [0u64; W]);
         for (l, s) in samples.iter().enumerate() {
-            let pixel = u64::from(s.y) * u64::from(self.image_width) + u64::from(s.x);
-            paths
-                .pcg
-                .seed_sample(l, self.seed, pixel, u64::from(s.sample));
-            sobol.seed_lane(l, self.seed, pixel, u64::from(s.sample));
+            pixels[l] = u64::from(s.y) * u64::from(self.image_width) + u64::from(s.x);
+            indices[l] = u64::from(s.sample);
             (x.0[l], y.0[l]) = (s.x, s.y);
             paths.slot.0[l] = first_slot + l as u32;
         }
+        paths.pcg.seed_samples(self.seed, &pixels, &indices);
+        sobol.seed_samples(self.seed, &pixels, &indices);
         paths.alive = Mask::first(samples.len());
         paths.segment = U32s::splat(1);
         let [dx, dy] = sobol.pair(Draw::Camera, &mut paths.pcg);

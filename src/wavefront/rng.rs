@@ -31,6 +31,7 @@ impl Default for Pcg32s {
 
 impl Pcg32s {
     /// Lane `l` becomes `Pcg32::new(state, stream)`.
+    #[inline(always)]
     pub fn seed_lane(&mut self, l: usize, state: u64, stream: u64) {
         self.increment[l] = (stream << 1) | 1;
         self.state[l] = state
@@ -39,12 +40,17 @@ impl Pcg32s {
             .wrapping_add(self.increment[l]);
     }
 
-    /// Lane `l` becomes the stream of camera sample `sample` of pixel `pixel` under
-    /// `seed`, as [`crate::sampling::Rng::for_sample`] keys it.
-    pub fn seed_sample(&mut self, l: usize, seed: u64, pixel: u64, sample: u64) {
-        let state = mix64(seed ^ mix64(pixel.wrapping_add(0x9e37_79b9_7f4a_7c15)));
-        let stream = mix64(sample ^ mix64(seed.rotate_left(17)));
-        self.seed_lane(l, state, stream);
+    /// Every lane becomes the stream of its camera sample (pixel `pixels[l]`, sample
+    /// `samples[l]`) under `seed`, as [`crate::sampling::Rng::for_sample`] keys it: one
+    /// loop over the lanes, so that the hashing is done in vector registers.
+    #[inline(always)]
+    pub fn seed_samples(&mut self, seed: u64, pixels: &[u64; W], samples: &[u64; W]) {
+        let stream_key = mix64(seed.rotate_left(17));
+        for l in 0..W {
+            let state = mix64(seed ^ mix64(pixels[l].wrapping_add(0x9e37_79b9_7f4a_7c15)));
+            let stream = mix64(samples[l] ^ stream_key);
+            self.seed_lane(l, state, stream);
+        }
     }
 
     /// Lane `l` becomes lane `k` of `from`.
@@ -110,10 +116,14 @@ pub enum Draw {
 }
 
 impl SobolLanes {
-    /// Lane `l` reads point `sample` of the sequences of pixel `pixel` under `seed`.
-    pub fn seed_lane(&mut self, l: usize, seed: u64, pixel: u64, sample: u64) {
-        self.index[l] = u32::try_from(sample).unwrap_or(u32::MAX);
-        self.key[l] = mix64(seed ^ mix64(pixel ^ 0x5ca1_ab1e)) as u32;
+    /// Every lane reads point `samples[l]` of the sequences of pixel `pixels[l]` under
+    /// `seed`.
+    #[inline(always)]
+    pub fn seed_samples(&mut self, seed: u64, pixels: &[u64; W], samples: &[u64; W]) {
+        for l in 0..W {
+            self.index[l] = samples[l].min(u64::from(u32::MAX)) as u32;
+            self.key[l] = mix64(seed ^ mix64(pixels[l] ^ 0x5ca1_ab1e)) as u32;
+        }
     }
 
     /// Every lane's 2-D draw `draw`, in `[0, 1)²`. A lane past its sequence takes two
@@ -249,6 +259,25 @@ mod tests {
         }
     }
 
+    /// Lanes keyed by (seed, pixel, sample) draw the scalar loop's unstratified
+    /// stream of the same camera sample, number for number.
+    #[test]
+    fn lanes_are_keyed_as_the_scalar_streams() {
+        let mut pcg = Pcg32s::default();
+        let pixels = std::array::from_fn(|l| 1000 + 7 * l as u64);
+        let samples = std::array::from_fn(|l| (l * l) as u64);
+        pcg.seed_samples(42, &pixels, &samples);
+        let mut scalar: Vec<_> = (0..W)
+            .map(|l| crate::sampling::Rng::for_sample(42, pixels[l], samples[l]))
+            .collect();
+        for _ in 0..20 {
+            let lanes = pcg.f32();
+            for (l, rng) in scalar.iter_mut().enumerate() {
+                assert_eq!(lanes.0[l], rng.f32());
+            }
+        }
+    }
+
     /// The first `2^m` samples of a pixel, for every `m` up to 10, put exactly one
     /// point of each draw in every dyadic box of area `2^-m` (the (0, m, 2)-net
     /// property, which Owen scrambling and the index shuffle preserve).
@@ -278,9 +307,8 @@ mod tests {
         let mut points = Vec::new();
         for first in (0..n).step_by(W) {
             let mut sobol = SobolLanes::default();
-            for l in 0..W {
-                sobol.seed_lane(l, seed, pixel, (first + l) as u64);
-            }
+            let samples = std::array::from_fn(|l| (first + l) as u64);
+            sobol.seed_samples(seed, &[pixel; W], &samples);
             let [x, y] = sobol.pair(draw, &mut pcg);
             points.extend((0..W).map(|l| (x.0[l], y.0[l])));
         }
@@ -307,11 +335,11 @@ mod tests {
         let mut sobol = SobolLanes::default();
         let mut pcg = Pcg32s::default();
         let mut reference = Pcg32s::default();
-        for l in 0..W {
-            sobol.seed_lane(l, 3, 4, SOBOL_POINTS as u64 + l as u64);
-            pcg.seed_sample(l, 3, 4, l as u64);
-            reference.seed_sample(l, 3, 4, l as u64);
-        }
+        let past = std::array::from_fn(|l| u64::from(SOBOL_POINTS) + l as u64);
+        let own = std::array::from_fn(|l| l as u64);
+        sobol.seed_samples(3, &[4; W], &past);
+        pcg.seed_samples(3, &[4; W], &own);
+        reference.seed_samples(3, &[4; W], &own);
         let [x, y] = sobol.pair(Draw::Camera, &mut pcg);
         assert_eq!(x, reference.f32());
         assert_eq!(y, reference.f32());
@@ -321,9 +349,7 @@ mod tests {
     #[test]
     fn lane_draws_are_uniform() {
         let mut pcg = Pcg32s::default();
-        for l in 0..W {
-            pcg.seed_sample(l, 3, l as u64, 0);
-        }
+        pcg.seed_samples(3, &std::array::from_fn(|l| l as u64), &[0; W]);
         let bins = 64;
         let mut counts = vec![0u64; bins];
         let rounds = (1 << 18) / W;
