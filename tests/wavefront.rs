@@ -13,7 +13,7 @@ use ember::film::Film;
 use ember::image::{compare, Image};
 use ember::integrator::IntegratorKind;
 use ember::render::{render, Engine, RenderSettings};
-use ember::scene::{load_obj, Camera, CameraSettings, Scene};
+use ember::scene::{load_obj, Camera, CameraSettings, Light, PointLight, Scene};
 use ember::wavefront::LaneScene;
 use glam::Vec3;
 
@@ -220,6 +220,14 @@ fn what_it_does_not_render_yet_is_refused_in_one_line() {
     let reason = LaneScene::new(&glossy).unwrap_err();
     assert!(reason.contains("Lambert"), "{reason}");
     assert!(LaneScene::new(&cornell()).is_ok());
+    let mut lit = cornell();
+    lit.lights.push(Light::Point(PointLight {
+        position: Vec3::new(0.0, 1.5, 0.0),
+        intensity: Vec3::ONE,
+        spot: None,
+    }));
+    let reason = LaneScene::new(&lit).unwrap_err();
+    assert!(reason.contains("lights"), "{reason}");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.exr");
     let out = out.to_str().unwrap();

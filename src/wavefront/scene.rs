@@ -143,6 +143,10 @@ fn unsupported(scene: &Scene) -> Result<(), String> {
         "instances"
     } else if !scene.mesh.normals.is_empty() {
         "shading normals"
+    } else if !scene.mesh.colours.is_empty() {
+        "vertex colours"
+    } else if !scene.lights.is_empty() {
+        "lights a scene file places"
     } else if scene.sky.is_some() {
         "a sky or environment map"
     } else if scene.emitters.is_empty() {
