@@ -683,6 +683,7 @@ fn guiding_with_a_point_light_renders_the_unguided_image() {
         light_sampler: Default::default(),
         adaptive: None,
         guiding,
+        engine: Default::default(),
     };
     let guiding = Guiding { iterations: 5 };
     let guided = Some(guiding);
