@@ -72,6 +72,7 @@ fn json_document_has_every_measurement() {
         "CornellBox-Original.obj",
         "sphere:2000",
         "embree packet8",
+        "embree packet16",
         "bvh single",
     ] {
         assert!(svg.contains(text), "the chart has no {text:?}");
@@ -94,7 +95,7 @@ fn json_document_has_every_measurement() {
         assert!(r["threads"].as_u64().unwrap() >= 1);
         assert!(r["triangles"].as_u64().unwrap() > 0);
         assert!(r["memory_bytes"].as_u64().unwrap() > 0, "{r}");
-        assert!(["single", "packet8", "direct"].contains(&r["api"].as_str().unwrap()));
+        assert!(["single", "packet8", "packet16", "direct"].contains(&r["api"].as_str().unwrap()));
         if mode == "build" {
             assert!(r["build_ms"].as_f64().unwrap() >= 0.0);
         } else {
@@ -133,9 +134,11 @@ fn json_document_has_every_measurement() {
     for q in ["low", "medium", "high"] {
         assert!(qualities.contains(&q));
     }
-    assert!(results
-        .iter()
-        .any(|r| r["api"] == "packet8" && r["mode"] == "diffuse"));
+    for api in ["packet8", "packet16"] {
+        assert!(results
+            .iter()
+            .any(|r| r["api"] == api && r["mode"] == "diffuse"));
+    }
     // The same rays hit the same number of times in every backend (the Cornell box is
     // closed on five sides, so almost all primary rays hit).
     let hits = |backend: &str| {

@@ -203,6 +203,8 @@ Legend:
   direct     the same rays through bare rtcIntersect1/rtcOccluded1 calls, as a C program
              would: the gap to `embree single` is what ember's wrapper costs
   packet8    Embree's 8-ray packets (rtcIntersect8/rtcOccluded8)
+  packet16   Embree's 16-ray packets (rtcIntersect16/rtcOccluded16), as `--engine wavefront`
+             traces
   N.NNx      traversal: Mrays/s over `embree single` on the same rays and threads; builds:
              Embree's medium-quality build time over this build's; above 1 is faster
   cpu        cores the process kept busy while tracing (the lowest of the row): a speed-up
