@@ -227,6 +227,35 @@ fn a_missing_material_library_or_material_is_one_warning() {
     render(dir.path(), "gone-mtl.obj", &["--strict"]).refused(&["gone.mtl", "not found"]);
 }
 
+/// `mtllib a.mtl b.mtl` names two libraries, as the OBJ specification allows, while a
+/// library whose own name holds a space is still found by its whole name.
+#[test]
+fn one_mtllib_statement_names_several_libraries_or_one_with_spaces() {
+    let green = "newmtl green\nKd 0.1 0.6 0.2\n";
+    let two = quad_obj("other.mtl scene.mtl", "red paint");
+    let green_from_two = quad_obj("scene.mtl other.mtl", "green");
+    let spaced = quad_obj("my paints.mtl", "red paint");
+    let dir = folder(&[
+        ("two.obj", two.as_bytes()),
+        ("green.obj", green_from_two.as_bytes()),
+        ("spaced.obj", spaced.as_bytes()),
+        ("scene.mtl", RED.as_bytes()),
+        ("other.mtl", green.as_bytes()),
+        ("my paints.mtl", RED.as_bytes()),
+    ]);
+    let red = Vec3::new(0.7, 0.2, 0.1);
+    assert_uniform(render(dir.path(), "two.obj", &[]).clean(), red, 1e-5);
+    let image = render(dir.path(), "green.obj", &[]);
+    assert_uniform(image.clean(), Vec3::new(0.1, 0.6, 0.2), 1e-5);
+    let strict = render(dir.path(), "spaced.obj", &["--strict"]);
+    assert_uniform(strict.clean(), red, 1e-5);
+    // A missing one of the two is one warning naming it alone.
+    std::fs::remove_file(dir.path().join("other.mtl")).unwrap();
+    let run = render(dir.path(), "two.obj", &[]);
+    assert_uniform(run.one_warning(&["other.mtl", "not found"]), red, 1e-5);
+    assert!(!run.stderr.contains("scene.mtl"), "{}", run.stderr);
+}
+
 #[test]
 fn paths_from_other_machines_resolve_by_their_file_name() {
     let red = png([200, 40, 20]);

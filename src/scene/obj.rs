@@ -279,6 +279,20 @@ impl Sources<'_> {
         }
     }
 
+    /// The libraries one `mtllib` statement names: the whole of `written` when a
+    /// library goes by that name (names may hold spaces), otherwise each of its words,
+    /// as the OBJ specification's `mtllib a.mtl b.mtl` lists several.
+    fn library_names<'w>(&self, written: &'w str) -> Vec<&'w str> {
+        let whole = match self {
+            Sources::Disk { dir } => asset_paths::find(written, &[dir]).is_some(),
+            Sources::Memory { mtl } => mtl.contains_key(written),
+        };
+        match written.split_whitespace().collect::<Vec<_>>() {
+            words if words.len() > 1 && !whole => words,
+            _ => vec![written],
+        }
+    }
+
     /// Reads and checks the material library `written` names: its materials (none when
     /// it is absent), with its warnings (unknown keys) said as `FILE:LINE: …`.
     fn load_mtl(
@@ -510,17 +524,21 @@ fn parse(
     let warnings = RefCell::new(warnings);
     let load_mtl = |name: &Path| -> tobj::MTLLoadResult {
         let written = name.to_string_lossy();
-        match sources.load_mtl(path, &written, &mut warnings.borrow_mut()) {
-            Ok(Some((library, materials))) => {
-                libraries.borrow_mut().push(library);
-                mtl::tobj_result(materials)
-            }
-            Ok(None) => mtl::tobj_result(Vec::new()),
-            Err(e) => {
-                mtl_error.borrow_mut().get_or_insert(e);
-                Err(tobj::LoadError::OpenFileFailed)
+        let mut materials = Vec::new();
+        for name in sources.library_names(&written) {
+            match sources.load_mtl(path, name, &mut warnings.borrow_mut()) {
+                Ok(Some((library, more))) => {
+                    libraries.borrow_mut().push(library);
+                    materials.extend(more);
+                }
+                Ok(None) => {}
+                Err(e) => {
+                    mtl_error.borrow_mut().get_or_insert(e);
+                    return Err(tobj::LoadError::OpenFileFailed);
+                }
             }
         }
+        mtl::tobj_result(materials)
     };
     let options = tobj::LoadOptions {
         single_index: true,
