@@ -256,6 +256,29 @@ fn one_mtllib_statement_names_several_libraries_or_one_with_spaces() {
     assert!(!run.stderr.contains("scene.mtl"), "{}", run.stderr);
 }
 
+/// A scene whose texture folder was never shipped warns once per material and slot;
+/// past twenty lines the rest are counted (all printed with `-v`), and the summary
+/// counts them all.
+#[test]
+fn past_twenty_warnings_the_rest_are_counted() {
+    let mut obj = format!("mtllib many.mtl\n{QUAD}");
+    let mut mtl = String::new();
+    for m in 0..25 {
+        obj += &format!("usemtl m{m}\n{FACE}");
+        mtl += &format!("newmtl m{m}\nKd 0.5 0.5 0.5\nmap_Kd textures/m{m}.png\n");
+    }
+    let dir = folder(&[("many.obj", obj.as_bytes()), ("many.mtl", mtl.as_bytes())]);
+    let run = render(dir.path(), "many.obj", &[]);
+    assert!(run.out.status.success(), "{}", run.stderr);
+    let warnings = run.warnings();
+    assert_eq!(warnings.len(), 21, "{}", run.stderr);
+    assert!(warnings[19].contains("m19.png"), "{}", warnings[19]);
+    assert!(warnings[20].contains("5 more warnings"), "{}", warnings[20]);
+    assert!(run.stderr.contains(", 25 warnings\n"), "{}", run.stderr);
+    let verbose = render(dir.path(), "many.obj", &["-v"]);
+    assert_eq!(verbose.warnings().len(), 25, "{}", verbose.stderr);
+}
+
 #[test]
 fn paths_from_other_machines_resolve_by_their_file_name() {
     let red = png([200, 40, 20]);

@@ -99,9 +99,7 @@ pub fn info(args: InfoArgs) -> Result<()> {
 fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
     let loaded = super::render::load_as_rendered(path, options.strict)?;
     let (scene, report) = (&loaded.scene, &loaded.report);
-    for warning in &report.warnings {
-        eprintln!("warning: {warning}");
-    }
+    super::verbosity::print_warnings(&report.warnings);
     println!("{}: {}", path.display(), report.summary());
     let placed = scene
         .instancing

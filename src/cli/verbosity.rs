@@ -39,3 +39,24 @@ pub fn status() -> bool {
 pub fn verbose() -> bool {
     level() >= Verbosity::Verbose
 }
+
+/// Most warnings of one load printed without `-v`: a downloaded scene that lacks its
+/// texture folder says one line per material and slot, which would bury the rest.
+pub const WARNINGS_SHOWN: usize = 20;
+
+/// Prints a load's warnings on standard error: every one with `-v`, otherwise the first
+/// [`WARNINGS_SHOWN`] and how many more there are.
+pub fn print_warnings(warnings: &[String]) {
+    let shown = if verbose() {
+        warnings.len()
+    } else {
+        WARNINGS_SHOWN
+    };
+    for warning in warnings.iter().take(shown) {
+        eprintln!("warning: {warning}");
+    }
+    if warnings.len() > shown {
+        let more = warnings.len() - shown;
+        eprintln!("warning: {more} more warnings like these (-v prints every one)");
+    }
+}

@@ -16,9 +16,7 @@ use ember::scene::CameraSettings;
 /// The scene's warnings, what was loaded, and the camera ember chose.
 pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&CameraProbe>) {
     let report = &loaded.report;
-    for warning in &report.warnings {
-        eprintln!("warning: {warning}");
-    }
+    verbosity::print_warnings(&report.warnings);
     if !verbosity::status() {
         return;
     }
