@@ -513,6 +513,22 @@ fn a_3ds_max_mtl_reads_as_a_clean_one() {
     same_image(image.clean(), render(dir.path(), "clean.obj", &[]).clean());
 }
 
+/// 3ds Max names its materials `Material #25`: a `#` in a `usemtl` name is part of
+/// it, as it is in `newmtl`, so each face gets its own material, without a warning.
+#[test]
+fn a_hash_in_a_material_name_is_part_of_it() {
+    let obj = format!(
+        "mtllib max.mtl\n{QUAD}usemtl Material #25\nf 1 2 3\nusemtl Material #26\nf 1 3 4\n"
+    );
+    let mtl = "newmtl Material #25\nKd 1 0 0\nnewmtl Material #26\nKd 0 1 0\n";
+    let dir = folder(&[("max.obj", obj.as_bytes()), ("max.mtl", mtl.as_bytes())]);
+    let (scene, report) = load_obj(&dir.path().join("max.obj")).unwrap();
+    assert!(report.warnings.is_empty(), "{:?}", report.warnings);
+    let diffuse = |t: usize| scene.materials[scene.mesh.material[t] as usize].diffuse;
+    assert_eq!(diffuse(0), Vec3::X);
+    assert_eq!(diffuse(1), Vec3::Y);
+}
+
 #[test]
 fn mtl_syntax_errors_name_the_file_line_and_what_was_expected() {
     let dir = folder(&[("scene.obj", quad_obj("bad.mtl", "m").as_bytes())]);

@@ -61,8 +61,11 @@ vp 1 2 3
 f 3 2 1
 usemtl blue
 f 4/3 3/2 2/1
+usemtl Material #25
 o
 f 1 3 4
+usemtl red # not a comment: part of the name
+f 1 2 4
 \tf\t2  3\t4\r
 usemtl red
 v 5 5 5
@@ -75,7 +78,7 @@ f -1 -2 -3
 fn edge_cases_read_as_tobj_reads_them() {
     let mtl = HashMap::from([(
         "m.mtl".to_owned(),
-        "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\n".to_owned(),
+        "newmtl red\nKd 1 0 0\nnewmtl blue\nKd 0 0 1\nnewmtl Material #25\nKd 0 1 0\n".to_owned(),
     )]);
     // The whole text, and every prefix ending at a line end (each a file of its own).
     for (end, _) in EDGE_CASES.match_indices('\n') {

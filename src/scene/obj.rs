@@ -17,7 +17,7 @@ use glam::{Vec2, Vec3};
 
 use super::asset_paths;
 use super::mtl::{self, parse_mtl};
-use super::obj_text::{argument, pad_vertex_colours, strip_comments};
+use super::obj_text::{pad_vertex_colours, strip_comments, used_material};
 use super::texture_files::{Referrer, TextureLoader};
 use super::warnings::{LoadOptions, Warnings};
 use super::{Material, MaterialMaps, MtlValues, Scene, SceneError, TextureKind, TriangleMesh};
@@ -150,8 +150,7 @@ fn used_materials(text: &str) -> Vec<(usize, String)> {
     for at in memchr::memmem::find_iter(text.as_bytes(), "usemtl") {
         let start = text[..at].rfind('\n').map_or(0, |i| i + 1);
         let end = text[at..].find('\n').map_or(text.len(), |i| at + i);
-        let statement = text[start..end].split('#').next().unwrap_or("");
-        let Some(name) = argument(statement, "usemtl") else {
+        let Some(name) = used_material(&text[start..end]) else {
             continue;
         };
         line += memchr::memchr_iter(b'\n', &text.as_bytes()[counted..start]).count();

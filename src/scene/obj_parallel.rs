@@ -13,7 +13,7 @@
 //! error message go the way they went before. Numbers are read with the standard
 //! library's parsers, as tobj reads them, so the values are the same bits;
 //! `tests/obj_parallel.rs` holds the two readers to that. Names (`usemtl`, `mtllib`)
-//! are read by `obj_text::argument`, as ember gives them to tobj.
+//! are read by `obj_text`'s functions, as ember gives them to tobj.
 
 use std::collections::HashMap;
 use std::ops::Range;
@@ -22,7 +22,7 @@ use std::path::Path;
 use rayon::prelude::*;
 use rustc_hash::FxHashMap;
 
-use super::obj_text::argument;
+use super::obj_text::{argument, used_material};
 
 /// tobj's "no texture coordinate / normal" for a corner.
 const MISSING: u32 = u32::MAX;
@@ -139,6 +139,13 @@ fn lines(text: &str) -> impl Iterator<Item = &str> {
         // Both ends are at ASCII bytes (or the end), so they are character boundaries.
         Some(&text[start..end])
     })
+}
+
+/// The whole of `line` (a line of `text` as [`lines`] gives it), its comment included.
+fn whole_line<'a>(text: &'a str, line: &str) -> &'a str {
+    let start = line.as_ptr() as usize - text.as_ptr() as usize;
+    let rest = &text[start..];
+    &rest[..memchr::memchr(b'\n', rest.as_bytes()).unwrap_or(rest.len())]
 }
 
 /// The words of a line, split where tobj splits them (Unicode white space), quickly
@@ -337,7 +344,10 @@ fn parse_chunk<'a>(text: &'a str, out: &mut ChunkSlices<'_>) -> Option<ChunkFace
             }
             Some("l" | "p") => return None,
             Some("o" | "g") => faces.event(Statement::Object(line)),
-            Some("usemtl") => faces.event(Statement::UseMaterial(argument(line, "usemtl")?)),
+            Some("usemtl") => {
+                let name = used_material(whole_line(text, line))?;
+                faces.event(Statement::UseMaterial(name))
+            }
             Some("mtllib") => faces.event(Statement::MaterialLibrary(argument(line, "mtllib")?)),
             _ => {}
         }

@@ -17,17 +17,24 @@ pub(super) fn argument<'a>(line: &'a str, keyword: &str) -> Option<&'a str> {
     (!name.is_empty()).then_some(name)
 }
 
+/// The material a `usemtl` line names: the rest of the whole line, `#` and all, as the
+/// MTL reader reads `newmtl` names (3ds Max names its materials `Material #25`).
+pub(super) fn used_material(whole_line: &str) -> Option<&str> {
+    argument(whole_line, "usemtl")
+}
+
 /// The OBJ text for tobj: without comments, including those after a statement
-/// (`f 1 2 3 # quad`), which tobj would otherwise read as indices; and with each
-/// `usemtl` and `mtllib` written `keyword name`, as tobj reads a name only after a
-/// single space at the start of the line.
+/// (`f 1 2 3 # quad`), which tobj would otherwise read as indices, but not in a
+/// `usemtl` name ([`used_material`]); and with each `usemtl` and `mtllib` written
+/// `keyword name`, as tobj reads a name only after a single space at the start of the
+/// line.
 pub(super) fn strip_comments(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
-    for line in text.lines() {
-        let line = line.split('#').next().unwrap_or("");
-        let named = ["usemtl", "mtllib"]
-            .into_iter()
-            .find_map(|k| argument(line, k).map(|name| (k, name)));
+    for whole in text.lines() {
+        let line = whole.split('#').next().unwrap_or("");
+        let named = used_material(whole)
+            .map(|name| ("usemtl", name))
+            .or_else(|| argument(line, "mtllib").map(|name| ("mtllib", name)));
         match named {
             Some((keyword, name)) => {
                 out.push_str(keyword);
@@ -106,8 +113,8 @@ mod tests {
         assert_eq!(argument("usemtl", "usemtl"), None);
         assert_eq!(argument("usemtlx a", "usemtl"), None);
         assert_eq!(
-            strip_comments("usemtl\tRed # paint\nmtllib  a b.mtl\n"),
-            "usemtl Red\nmtllib a b.mtl\n"
+            strip_comments("usemtl\tMaterial #25\nmtllib  a b.mtl # two\n# usemtl x\n"),
+            "usemtl Material #25\nmtllib a b.mtl\n\n"
         );
     }
 
