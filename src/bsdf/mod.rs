@@ -20,9 +20,13 @@
 //! A BSDF is either wholly delta or has no delta part (see [`Bsdf::glossy`]).
 
 mod dielectric;
+mod ggx_albedo;
+mod metallic_roughness;
 mod microfacet;
 
 pub use dielectric::{fresnel_dielectric, refract};
+pub use ggx_albedo::{average_albedo, directional_albedo};
+pub use metallic_roughness::{schlick, MetallicRoughness};
 pub use microfacet::{reflect, Ggx};
 
 use glam::{Vec2, Vec3};
@@ -71,8 +75,12 @@ enum Lobes {
         ggx: Ggx,
         glossy_probability: f32,
     },
-    /// A perfect mirror of reflectance `reflectance`. Two-sided.
-    Mirror { reflectance: Vec3 },
+    /// A perfect mirror whose reflectance goes, by Schlick's Fresnel, from `normal` at
+    /// normal incidence to `grazing` (equal for a constant reflectance). Two-sided.
+    Mirror { normal: Vec3, grazing: Vec3 },
+    /// The glTF metallic-roughness material, never a delta (see
+    /// [`MetallicRoughness`]). Two-sided.
+    MetallicRoughness(metallic_roughness::Lobe),
     /// Smooth glass of index `ior` inside (the side opposite the normal), 1 outside.
     Dielectric { ior: f32 },
 }
@@ -104,7 +112,8 @@ impl Bsdf {
         let has_specular = specular.max_element() > 0.0;
         let lobes = if has_specular && !has_diffuse && alpha < DELTA_ALPHA {
             Lobes::Mirror {
-                reflectance: specular,
+                normal: specular,
+                grazing: specular,
             }
         } else {
             let glossy_probability = match (has_diffuse, has_specular) {
@@ -130,6 +139,21 @@ impl Bsdf {
         Bsdf::with_lobes(Lobes::Dielectric { ior }, ns, ng)
     }
 
+    /// The glTF metallic-roughness material `m`. A pure metal narrower than
+    /// [`DELTA_ALPHA`] is a mirror with Schlick's Fresnel; any other stays GGX at α ≥
+    /// [`DELTA_ALPHA`], for the reason [`glossy`](Self::glossy) gives.
+    pub fn metallic_roughness(m: &MetallicRoughness, ns: Vec3, ng: Vec3) -> Bsdf {
+        let lobes = if m.is_mirror() {
+            Lobes::Mirror {
+                normal: m.base_colour,
+                grazing: Vec3::ONE,
+            }
+        } else {
+            Lobes::MetallicRoughness(metallic_roughness::Lobe::new(m))
+        };
+        Bsdf::with_lobes(lobes, ns, ng)
+    }
+
     fn with_lobes(lobes: Lobes, ns: Vec3, ng: Vec3) -> Bsdf {
         Bsdf {
             frame: Onb::from_w(ns),
@@ -142,7 +166,10 @@ impl Bsdf {
     /// and `pdf` are 0 everywhere and light sampling is pointless).
     #[inline]
     pub fn is_delta(&self) -> bool {
-        !matches!(self.lobes, Lobes::Reflective { .. })
+        !matches!(
+            self.lobes,
+            Lobes::Reflective { .. } | Lobes::MetallicRoughness(_)
+        )
     }
 
     /// The reflectance a denoiser is given as albedo: diffuse plus specular colour,
@@ -152,8 +179,9 @@ impl Bsdf {
             Lobes::Reflective {
                 diffuse, specular, ..
             } => (diffuse + specular).min(Vec3::ONE),
-            Lobes::Mirror { reflectance } => reflectance,
+            Lobes::Mirror { normal, .. } => normal,
             Lobes::Dielectric { .. } => Vec3::ONE,
+            Lobes::MetallicRoughness(lobe) => lobe.albedo(),
         }
     }
 
@@ -186,12 +214,26 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
-            Lobes::Mirror { reflectance } => {
+            Lobes::MetallicRoughness(lobe) => {
+                let (flip, wo_local) = self.reflective_frame(wo)?;
+                let p = lobe.glossy_probability(wo_local);
+                let wi = self.world(lobe.sample(wo_local, u, p), flip);
+                let (value, pdf) = self.eval_pdf(wo, wi);
+                (pdf > 0.0).then_some(BsdfSample {
+                    wi,
+                    value,
+                    pdf,
+                    delta: false,
+                    eta: 1.0,
+                })
+            }
+            Lobes::Mirror { normal, grazing } => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
                 let wi = self.world(Vec3::new(-wo_local.x, -wo_local.y, wo_local.z), flip);
+                let edge = (1.0 - wo_local.z.min(1.0)).powi(5);
                 self.same_side(wo, wi).then_some(BsdfSample {
                     wi,
-                    value: reflectance,
+                    value: normal + (grazing - normal) * edge,
                     pdf: 1.0,
                     delta: true,
                     eta: 1.0,
@@ -217,15 +259,9 @@ impl Bsdf {
     /// [`eval`](Self::eval) and [`pdf`](Self::pdf) at once, sharing the frame change.
     #[inline]
     pub fn eval_pdf(&self, wo: Vec3, wi: Vec3) -> (Vec3, f32) {
-        let Lobes::Reflective {
-            diffuse,
-            specular,
-            ggx,
-            glossy_probability,
-        } = self.lobes
-        else {
+        if self.is_delta() {
             return (Vec3::ZERO, 0.0);
-        };
+        }
         let Some((flip, wo_local)) = self.reflective_frame(wo) else {
             return (Vec3::ZERO, 0.0);
         };
@@ -233,14 +269,28 @@ impl Bsdf {
         if wi_local.z <= 0.0 || !self.same_side(wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
-        let cosine = wi_local.z * FRAC_1_PI;
-        let mut value = diffuse * cosine;
-        let mut pdf = (1.0 - glossy_probability) * cosine;
-        if glossy_probability > 0.0 {
-            value += specular * ggx.reflectance_cos(wo_local, wi_local);
-            pdf += glossy_probability * ggx.pdf(wo_local, wi_local);
+        match self.lobes {
+            Lobes::Reflective {
+                diffuse,
+                specular,
+                ggx,
+                glossy_probability,
+            } => {
+                let cosine = wi_local.z * FRAC_1_PI;
+                let mut value = diffuse * cosine;
+                let mut pdf = (1.0 - glossy_probability) * cosine;
+                if glossy_probability > 0.0 {
+                    value += specular * ggx.reflectance_cos(wo_local, wi_local);
+                    pdf += glossy_probability * ggx.pdf(wo_local, wi_local);
+                }
+                (value, pdf)
+            }
+            Lobes::MetallicRoughness(lobe) => {
+                let p = lobe.glossy_probability(wo_local);
+                lobe.eval_pdf(wo_local, wi_local, p)
+            }
+            Lobes::Mirror { .. } | Lobes::Dielectric { .. } => (Vec3::ZERO, 0.0),
         }
-        (value, pdf)
     }
 
     /// For a two-sided reflective surface: whether `wo` is behind the geometric normal
