@@ -193,28 +193,51 @@ fn describe(m: &Material) -> String {
             rgb(m.specular)
         ),
         Model::Glass { ior } => format!("smooth glass, index {ior}"),
+        Model::MetallicRoughness {
+            alpha,
+            ior,
+            specular,
+        } => {
+            let mut s = format!(
+                "glTF metallic-roughness, base colour {}, metallic {}, roughness {} (alpha {alpha})",
+                rgb(m.diffuse),
+                m.metallic,
+                m.roughness.unwrap_or(alpha.sqrt()),
+            );
+            if ior != 1.5 {
+                s += &format!(", ior {ior}");
+            }
+            if specular != 1.0 || m.specular != Vec3::ONE {
+                s += &format!(", specular {specular} colour {}", rgb(m.specular));
+            }
+            s
+        }
     };
     let maps = &m.maps;
+    // glTF's names for a glTF material's maps (one texture may feed two slots).
+    let gltf = m.factors_multiply_maps();
+    let name = |mtl: &'static str, gltf_name: &'static str| if gltf { gltf_name } else { mtl };
     let named = [
-        (m.diffuse_texture, "map_Kd"),
-        (maps.specular, "map_Ks"),
-        (maps.emission, "map_Ke"),
+        (m.diffuse_texture, name("map_Kd", "baseColorTexture")),
+        (maps.specular, name("map_Ks", "specularColorTexture")),
+        (maps.emission, name("map_Ke", "emissiveTexture")),
         (maps.shininess, "map_Ns"),
-        (maps.roughness, "map_Pr"),
-        (maps.metallic, "map_Pm"),
+        (maps.roughness, name("map_Pr", "metallicRoughnessTexture")),
+        (maps.metallic, name("map_Pm", "metallicRoughnessTexture")),
         (maps.bump, "bump"),
-        (maps.normal, "norm"),
-        (m.opacity_map, "map_d"),
+        (maps.normal, name("norm", "normalTexture")),
+        (m.opacity_map, name("map_d", "alpha")),
     ];
-    let present: Vec<&str> = named
+    let mut present: Vec<&str> = named
         .iter()
         .filter(|(t, _)| t.is_some())
         .map(|(_, n)| *n)
         .collect();
+    present.dedup();
     if !present.is_empty() {
         s += &format!(", maps {}", present.join(" "));
     }
-    if m.metallic > 0.0 {
+    if m.metallic > 0.0 && !m.factors_multiply_maps() {
         s += &format!(", metallic {}", m.metallic);
     }
     if m.opacity < 1.0 {

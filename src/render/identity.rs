@@ -9,7 +9,9 @@ use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
 use crate::light::LightSamplerKind;
-use crate::scene::{CameraSettings, Light, Material, MaterialMaps, Model, Scene, Texels};
+use crate::scene::{
+    CameraSettings, Channel, Light, Material, MaterialMaps, Model, Scene, Texels,
+};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
@@ -244,7 +246,9 @@ impl Fingerprint {
             shininess: shininess_map,
             emission: emission_map,
             roughness: roughness_map,
+            roughness_channel,
             metallic: metallic_map,
+            metallic_channel,
             bump,
             bump_scale,
             normal,
@@ -267,6 +271,10 @@ impl Fingerprint {
             *metallic,
             bump_scale,
         ]);
+        // Only channels other than the default are hashed, like cut-outs below.
+        if (roughness_channel, metallic_channel) != (Channel::Red, Channel::Red) {
+            self.u32s([roughness_channel as u32, metallic_channel as u32]);
+        }
         // Only cut-outs are hashed, so that opaque scenes keep the fingerprint they had
         // before opacity existed (and their checkpoints stay resumable).
         if !m.is_opaque() {
@@ -288,6 +296,14 @@ impl Fingerprint {
             Model::Glass { ior } => {
                 self.u32s([3]);
                 self.f32s([ior]);
+            }
+            Model::MetallicRoughness {
+                alpha,
+                ior,
+                specular,
+            } => {
+                self.u32s([4]);
+                self.f32s([alpha, ior, specular]);
             }
         }
     }

@@ -27,10 +27,16 @@
 //! than it receives. Any material with `Ke` > 0 (or `map_Ke`) also emits from the side
 //! its triangles' counter-clockwise winding faces, and still reflects with its BSDF.
 //! Every surface but glass is two-sided.
+//!
+//! A glTF material is not read from MTL: its loader makes a [`Model::MetallicRoughness`]
+//! with [`Material::metallic_roughness`] and sets the maps. Its factors *multiply* their
+//! textures (`baseColorFactor` in `Kd` × `map_Kd`, `specularColorFactor` in `Ks` ×
+//! `map_Ks`), and one metallic-roughness texture feeds both scalars through
+//! [`Channel`]s: roughness from green, metallic from blue.
 
 use glam::Vec3;
 
-use crate::bsdf::Bsdf;
+use crate::bsdf::{Bsdf, MetallicRoughness};
 
 /// Which row of the mapping table a material took, with its parameters.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,6 +49,33 @@ pub enum Model {
     Coated { alpha: f32 },
     /// Smooth glass of index `ior`.
     Glass { ior: f32 },
+    /// The glTF 2.0 metallic-roughness BRDF ([`MetallicRoughness`]): base colour `Kd`,
+    /// metallic `Pm`, roughness `Pr` (`alpha` = `Pr²`); `ior` is `KHR_materials_ior`'s
+    /// and `specular` `KHR_materials_specular`'s `specularFactor`, whose
+    /// `specularColorFactor` is `Ks`.
+    MetallicRoughness { alpha: f32, ior: f32, specular: f32 },
+}
+
+/// Which channel of its texture a scalar map reads. A single-channel texture (what
+/// MTL's scalar maps load as: the image's luminance) holds its value in all three.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Channel {
+    #[default]
+    Red,
+    Green,
+    Blue,
+}
+
+impl Channel {
+    /// This channel of a texture's value.
+    #[inline]
+    pub fn of(self, value: Vec3) -> f32 {
+        match self {
+            Channel::Red => value.x,
+            Channel::Green => value.y,
+            Channel::Blue => value.z,
+        }
+    }
 }
 
 /// The texture maps of a material: indices into the scene's textures.
@@ -56,8 +89,12 @@ pub struct MaterialMaps {
     pub emission: Option<u32>,
     /// `map_Pr` (scalar): multiplies `Pr`.
     pub roughness: Option<u32>,
+    /// The channel `roughness` reads (glTF's metallic-roughness texture: green).
+    pub roughness_channel: Channel,
     /// `map_Pm` (scalar): multiplies `Pm`.
     pub metallic: Option<u32>,
+    /// The channel `metallic` reads (glTF's metallic-roughness texture: blue).
+    pub metallic_channel: Channel,
     /// `bump` / `map_Bump` (scalar height map) and its `-bm` multiplier.
     pub bump: Option<u32>,
     pub bump_scale: f32,
@@ -75,11 +112,13 @@ impl MaterialMaps {
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
-    /// `Kd`: diffuse reflectance (linear RGB, in [0, 1]).
+    /// `Kd`: diffuse reflectance (linear RGB, in [0, 1]); glTF's `baseColorFactor`.
     pub diffuse: Vec3,
-    /// `map_Kd`: index into the scene's textures, replacing `Kd` where present.
+    /// `map_Kd`: index into the scene's textures, replacing `Kd` where present (glTF's
+    /// `baseColorTexture`, which multiplies it).
     pub diffuse_texture: Option<u32>,
-    /// `Ks`: the Fresnel factor of the GGX lobe (linear RGB, in [0, 1]).
+    /// `Ks`: the Fresnel factor of the GGX lobe (linear RGB, in [0, 1]); glTF's
+    /// `specularColorFactor` (≥ 0), which scales the dielectric's `F0`.
     pub specular: Vec3,
     /// `Ke`: emitted radiance (1 where only `map_Ke` is given).
     pub emission: Vec3,
@@ -207,6 +246,37 @@ impl Material {
         }
     }
 
+    /// The glTF metallic-roughness material of the core specification: base colour
+    /// `base_colour` (linear), `metallic` and perceptual `roughness` in [0, 1], index
+    /// 1.5, no emission and no maps.
+    pub fn metallic_roughness(
+        name: &str,
+        base_colour: Vec3,
+        metallic: f32,
+        roughness: f32,
+    ) -> Material {
+        let roughness = roughness.clamp(0.0, 1.0);
+        Material {
+            name: name.to_owned(),
+            diffuse: base_colour.clamp(Vec3::ZERO, Vec3::ONE),
+            specular: Vec3::ONE,
+            model: Model::MetallicRoughness {
+                alpha: alpha_from_pr(roughness),
+                ior: 1.5,
+                specular: 1.0,
+            },
+            roughness: Some(roughness),
+            metallic: metallic.clamp(0.0, 1.0),
+            ..Material::default()
+        }
+    }
+
+    /// Whether a colour factor multiplies its texture (glTF) rather than being replaced
+    /// by it (MTL).
+    pub fn factors_multiply_maps(&self) -> bool {
+        matches!(self.model, Model::MetallicRoughness { .. })
+    }
+
     /// Whether every point of the surface is there (no cut-outs).
     pub fn is_opaque(&self) -> bool {
         self.opacity >= 1.0 && self.opacity_map.is_none()
@@ -219,7 +289,9 @@ impl Material {
     /// The GGX roughness of the model, before any map.
     pub fn alpha(&self) -> f32 {
         match self.model {
-            Model::Conductor { alpha } | Model::Coated { alpha } => alpha,
+            Model::Conductor { alpha }
+            | Model::Coated { alpha }
+            | Model::MetallicRoughness { alpha, .. } => alpha,
             Model::Lambert | Model::Glass { .. } => 1.0,
         }
     }
@@ -247,11 +319,25 @@ impl Material {
             }
             Model::Conductor { .. } => Bsdf::glossy(Vec3::ZERO, p.specular, p.alpha, ns, ng),
             Model::Glass { ior } => Bsdf::dielectric(ior, ns, ng),
+            Model::MetallicRoughness { ior, specular, .. } => {
+                let m = MetallicRoughness {
+                    base_colour: p.albedo,
+                    metallic: p.metallic,
+                    alpha: p.alpha,
+                    ior,
+                    specular,
+                    specular_colour: p.specular,
+                };
+                Bsdf::metallic_roughness(&m, ns, ng)
+            }
         }
     }
 
     /// Whether the diffuse reflectance is read at all (glass and conductors ignore it).
     pub fn uses_albedo(&self) -> bool {
-        matches!(self.model, Model::Lambert | Model::Coated { .. })
+        matches!(
+            self.model,
+            Model::Lambert | Model::Coated { .. } | Model::MetallicRoughness { .. }
+        )
     }
 }

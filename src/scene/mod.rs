@@ -42,7 +42,8 @@ pub use lights::{
     PointLight, SpotCone, LUMENS_PER_WATT, MAX_SPOT_ANGLE,
 };
 pub use material::{
-    alpha_from_ns, alpha_from_pr, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
+    alpha_from_ns, alpha_from_pr, Channel, Material, MaterialMaps, Model, MtlValues,
+    SurfaceParams,
 };
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use normal_maps::{bump, keep_reflection_above, normal_map, uv_derivatives};
@@ -284,7 +285,21 @@ impl Scene {
     /// clamped to [0, 1] like `Kd`, times the vertex colour.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
-        self.reflectance(material.diffuse_texture, material.diffuse, surface.uv) * surface.colour
+        self.colour(material, material.diffuse_texture, material.diffuse, surface.uv)
+            * surface.colour
+    }
+
+    /// A colour of `material` at `uv` from its constant and map: see
+    /// [`reflectance`](Self::reflectance), or, where factors multiply maps (glTF), the
+    /// constant times the map's value clamped to [0, 1].
+    #[inline]
+    fn colour(&self, material: &Material, map: Option<u32>, constant: Vec3, uv: Vec2) -> Vec3 {
+        match map {
+            Some(t) if material.factors_multiply_maps() => {
+                constant * self.texture(t).sample(uv).clamp(Vec3::ZERO, Vec3::ONE)
+            }
+            _ => self.reflectance(map, constant, uv),
+        }
     }
 
     /// A reflectance colour at `uv`: its map's value clamped to [0, 1] like the
@@ -302,21 +317,25 @@ impl Scene {
     pub fn params(&self, surface: &SurfacePoint) -> SurfaceParams {
         let material = self.material(surface);
         let maps = &material.maps;
-        let scalar = |map: Option<u32>| map.map(|t| self.texture(t).sample_scalar(surface.uv));
+        let scalar = |map: Option<u32>, channel: Channel| {
+            map.map(|t| channel.of(self.texture(t).sample(surface.uv)))
+        };
         let albedo = if material.uses_albedo() {
             self.albedo(surface)
         } else {
             Vec3::ZERO
         };
-        let specular = self.reflectance(maps.specular, material.specular, surface.uv);
-        let metallic = match maps.metallic {
-            Some(t) => material.metallic * self.texture(t).sample_scalar(surface.uv),
+        let specular = self.colour(material, maps.specular, material.specular, surface.uv);
+        let metallic = match scalar(maps.metallic, maps.metallic_channel) {
+            Some(m) => material.metallic * m,
             None => material.metallic,
         };
+        let roughness = scalar(maps.roughness, maps.roughness_channel);
+        let shininess = scalar(maps.shininess, Channel::Red);
         SurfaceParams {
             albedo,
             specular,
-            alpha: material.alpha_at(scalar(maps.roughness), scalar(maps.shininess)),
+            alpha: material.alpha_at(roughness, shininess),
             metallic: metallic.clamp(0.0, 1.0),
         }
     }

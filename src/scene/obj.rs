@@ -781,6 +781,7 @@ fn material_maps(
         bump,
         bump_scale,
         normal,
+        ..MaterialMaps::default()
     })
 }
 
