@@ -8,26 +8,17 @@ mod common;
 
 use std::f64::consts::PI;
 
-use common::stats::{check_density, monte_carlo, Binning, Density};
+use common::bsdf::{
+    albedo, assert_draws_follow_pdf, assert_pdf_integrates_to_the_kept_draws, assert_reciprocal,
+    assert_sample_agrees_with_eval_and_pdf, direction, draw, tilted_normal as normal,
+};
 use ember::bsdf::{fresnel_dielectric, Bsdf};
-use ember::sampling::{uniform_sphere, Onb, Rng};
+use ember::sampling::{uniform_sphere, Rng};
 use glam::{DVec3, Vec2, Vec3};
 
 const ALPHAS: [f32; 4] = [0.1, 0.25, 0.5, 0.9];
 /// Polar angles of `wo`, in degrees.
 const THETAS: [f32; 4] = [5.0, 40.0, 70.0, 85.0];
-
-/// A unit direction at polar angle `theta` (degrees) and azimuth `phi` (radians)
-/// around `normal`.
-fn direction(normal: Vec3, theta: f32, phi: f32) -> Vec3 {
-    let t = theta.to_radians();
-    Onb::from_w(normal).to_world(Vec3::new(t.sin() * phi.cos(), t.sin() * phi.sin(), t.cos()))
-}
-
-/// A tilted normal, not along any axis, so frames are exercised in general position.
-fn normal() -> Vec3 {
-    Vec3::new(0.3, 0.9, -0.2).normalize()
-}
 
 /// The reflective BSDFs under test, named: Lambert, GGX conductors and coated GGX at
 /// every α in [`ALPHAS`].
@@ -49,11 +40,6 @@ fn reflective_lobes(n: Vec3) -> Vec<(String, Bsdf)> {
     lobes
 }
 
-fn draw(bsdf: &Bsdf, wo: Vec3, rng: &mut Rng) -> Option<ember::bsdf::BsdfSample> {
-    let (u1, u2) = rng.pair();
-    bsdf.sample(wo, Vec2::new(u1, u2))
-}
-
 /// Chi-square of the sampled directions against `pdf`, with the integral of `pdf`
 /// (by quadrature) equal to the fraction of draws that yield a direction.
 #[test]
@@ -65,54 +51,26 @@ fn sampled_directions_follow_the_pdf() {
             // From both sides: the surfaces are two-sided.
             for side in [1.0f32, -1.0] {
                 let wo = side * direction(n, theta, 0.7);
-                let value = |wi: Vec3| bsdf.pdf(wo, wi);
-                let sampler = |rng: &mut Rng| draw(&bsdf, wo, rng).map(|s| s.wi);
-                // The fraction of draws that yield a direction, measured apart.
-                let mut rng = Rng::seeded(seed + 1);
-                let kept = (0..200_000)
-                    .filter(|_| draw(&bsdf, wo, &mut rng).is_some())
-                    .count() as f64
-                    / 200_000.0;
-                let density = Density {
-                    value: &value,
-                    draw: &sampler,
-                };
-                let binning = Binning {
-                    nz: 40,
-                    nphi: 32,
-                    // Fine enough for the narrow grazing lobes (α = 0.1 at 85°).
-                    sub: 24,
-                    draws: 200_000,
-                };
                 let label = format!("{name}, θo = {theta}°, side {side}");
-                check_density(&label, &density, n, kept, 0.01, binning, seed);
+                assert_draws_follow_pdf(&label, &bsdf, n, wo, seed);
                 seed += 2;
             }
         }
     }
 }
 
-/// `∫ pdf dω` by Monte Carlo over uniform directions equals the fraction of draws that
-/// yield a direction (1 for Lambert, a little less for GGX at grazing angles).
+/// `∫ pdf dω` equals the fraction of draws that yield a direction (1 for Lambert, a
+/// little less for GGX at grazing angles).
 #[test]
 fn pdf_integrates_to_one_less_the_failed_draws() {
     let n = normal();
     for (name, bsdf) in reflective_lobes(n) {
         for theta in THETAS {
             let wo = direction(n, theta, 2.0);
-            let mut rng = Rng::seeded(7);
-            let (integral, sigma) = monte_carlo(1_000_000, || {
-                let (u1, u2) = rng.pair();
-                f64::from(bsdf.pdf(wo, uniform_sphere(u1, u2))) * 4.0 * PI
-            });
-            let failed = (0..200_000)
-                .filter(|_| draw(&bsdf, wo, &mut rng).is_none())
-                .count() as f64
-                / 200_000.0;
-            let expected = 1.0 - failed;
-            assert!(
-                (integral - expected).abs() < 5.0 * sigma + 0.005,
-                "{name}, θo = {theta}°: ∫ pdf = {integral} ± {sigma}, expected {expected}"
+            let failed = assert_pdf_integrates_to_the_kept_draws(
+                &format!("{name}, θo = {theta}°"),
+                &bsdf,
+                wo,
             );
             if name == "lambert" {
                 assert_eq!(failed, 0.0);
@@ -129,15 +87,7 @@ fn sample_agrees_exactly_with_eval_and_pdf() {
     for (name, bsdf) in reflective_lobes(n) {
         for theta in THETAS {
             let wo = direction(n, theta, 1.0);
-            for _ in 0..2000 {
-                let Some(s) = draw(&bsdf, wo, &mut rng) else {
-                    continue;
-                };
-                assert!(!s.delta, "{name}");
-                assert_eq!(s.value, bsdf.eval(wo, s.wi), "{name}");
-                assert_eq!(s.pdf, bsdf.pdf(wo, s.wi), "{name}");
-                assert!(s.pdf > 0.0 && (s.wi.length() - 1.0).abs() < 1e-5);
-            }
+            assert_sample_agrees_with_eval_and_pdf(&name, &bsdf, wo, &mut rng);
         }
     }
 }
@@ -148,41 +98,8 @@ fn reflection_is_reciprocal() {
     let n = normal();
     let mut rng = Rng::seeded(4);
     for (name, bsdf) in reflective_lobes(n) {
-        let mut compared = 0;
-        for _ in 0..5000 {
-            let a = uniform_sphere(rng.f32(), rng.f32());
-            let b = uniform_sphere(rng.f32(), rng.f32());
-            let (ca, cb) = (a.dot(n).abs(), b.dot(n).abs());
-            if ca < 1e-3 || cb < 1e-3 {
-                continue;
-            }
-            let f_ab = bsdf.eval(a, b) / cb;
-            let f_ba = bsdf.eval(b, a) / ca;
-            let scale = f_ab.max_element().max(f_ba.max_element());
-            assert!(
-                (f_ab - f_ba).abs().max_element() <= 1e-4 * scale + 1e-7,
-                "{name}: f({a}, {b}) = {f_ab} but f({b}, {a}) = {f_ba}"
-            );
-            compared += usize::from(scale > 0.0);
-        }
-        assert!(compared > 1000, "{name}: only {compared} non-zero pairs");
+        assert_reciprocal(&name, &bsdf, n, &mut rng);
     }
-}
-
-/// Directional albedo `∫ f cos dωi`, as the mean sample weight, with its standard error.
-fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (Vec3, f32) {
-    let mut rng = Rng::seeded(seed);
-    let (mut sum, mut sum2) = (DVec3::ZERO, 0.0f64);
-    for _ in 0..n {
-        if let Some(s) = draw(bsdf, wo, &mut rng) {
-            let w = s.weight().as_dvec3();
-            sum += w;
-            sum2 += w.max_element().powi(2);
-        }
-    }
-    let mean = sum / n as f64;
-    let var = (sum2 / n as f64 - mean.max_element().powi(2)).max(0.0);
-    (mean.as_vec3(), (var / n as f64).sqrt() as f32)
 }
 
 /// GGX's single-scattering albedo with Fresnel 1, `∫ D G1(wo) G1(wi) / (4 cos θo) dωi`,
@@ -194,8 +111,8 @@ fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (Vec3, f32) {
 fn ggx_albedo_by_quadrature(alpha: f32, theta_o: f32) -> f64 {
     let alpha = f64::from(alpha);
     let t = f64::from(theta_o).to_radians();
-    let wo = glam::DVec3::new(t.sin(), 0.0, t.cos());
-    let g1 = |w: glam::DVec3| {
+    let wo = DVec3::new(t.sin(), 0.0, t.cos());
+    let g1 = |w: DVec3| {
         let tan2 = (w.x * w.x + w.y * w.y) / (w.z * w.z);
         2.0 / (1.0 + (1.0 + alpha * alpha * tan2).sqrt())
     };
@@ -208,7 +125,7 @@ fn ggx_albedo_by_quadrature(alpha: f32, theta_o: f32) -> f64 {
         let sin_h = tan_h * cos_h;
         for ip in 0..nphi {
             let phi = (ip as f64 + 0.5) / nphi as f64 * 2.0 * PI;
-            let h = glam::DVec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
+            let h = DVec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
             let wo_h = wo.dot(h);
             let wi = 2.0 * wo_h * h - wo;
             if wo_h <= 0.0 || wi.z <= 0.0 {

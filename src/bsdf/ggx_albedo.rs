@@ -127,7 +127,13 @@ mod tests {
 
     #[test]
     fn table_matches_a_finer_quadrature_between_its_nodes() {
-        for (mu, alpha) in [(0.9, 0.25), (0.5, 0.5), (0.2, 1.0), (0.05, 0.7), (0.7, 0.05)] {
+        for (mu, alpha) in [
+            (0.9, 0.25),
+            (0.5, 0.5),
+            (0.2, 1.0),
+            (0.05, 0.7),
+            (0.7, 0.05),
+        ] {
             let table = f64::from(directional_albedo(mu as f32, alpha as f32));
             // Sixteen times finer on each axis than the table was built with.
             let truth = albedo_by_quadrature(mu, alpha, 16 * N_X, 16 * N_PHI);

@@ -131,8 +131,8 @@ impl Lobe {
     /// The reflectance a denoiser is given: the base colour, plus the dielectric's
     /// specular reflection at normal incidence.
     pub(super) fn albedo(&self) -> Vec3 {
-        let dielectric = self.base * (1.0 - self.specular * self.f0.max_element())
-            + self.specular * self.f0;
+        let dielectric =
+            self.base * (1.0 - self.specular * self.f0.max_element()) + self.specular * self.f0;
         dielectric.lerp(self.base, self.metallic).min(Vec3::ONE)
     }
 
@@ -145,9 +145,8 @@ impl Lobe {
         let dielectric = self.specular * schlick(self.f0, wo.z);
         let metal = schlick(self.base, wo.z);
         let glossy = e * luminance(dielectric.lerp(metal, self.metallic));
-        let diffuse = (1.0 - self.metallic)
-            * luminance(self.base)
-            * (1.0 - dielectric.max_element());
+        let diffuse =
+            (1.0 - self.metallic) * luminance(self.base) * (1.0 - dielectric.max_element());
         let compensation_albedo = std::f32::consts::PI * (1.0 - average_albedo(self.ggx.alpha()));
         let compensation = luminance(self.compensation) * compensation_albedo * (1.0 - e);
         let cosine_shaped = diffuse + compensation;
@@ -184,10 +183,10 @@ impl Lobe {
             + self.specular * specular * fresnel;
         let metal = specular * schlick(self.base, v_h);
         let alpha = self.ggx.alpha();
-        let lost = (1.0 - directional_albedo(wo.z, alpha)) * (1.0 - directional_albedo(wi.z, alpha));
+        let lost =
+            (1.0 - directional_albedo(wo.z, alpha)) * (1.0 - directional_albedo(wi.z, alpha));
         let value = dielectric.lerp(metal, self.metallic) + self.compensation * (lost * wi.z);
-        let pdf = glossy_probability * self.ggx.pdf(wo, wi)
-            + (1.0 - glossy_probability) * cosine;
+        let pdf = glossy_probability * self.ggx.pdf(wo, wi) + (1.0 - glossy_probability) * cosine;
         (value, pdf)
     }
 }

@@ -9,9 +9,7 @@ use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
 use crate::light::LightSamplerKind;
-use crate::scene::{
-    CameraSettings, Channel, Light, Material, MaterialMaps, Model, Scene, Texels,
-};
+use crate::scene::{CameraSettings, Channel, Light, Material, MaterialMaps, Model, Scene, Texels};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any

@@ -42,8 +42,7 @@ pub use lights::{
     PointLight, SpotCone, LUMENS_PER_WATT, MAX_SPOT_ANGLE,
 };
 pub use material::{
-    alpha_from_ns, alpha_from_pr, Channel, Material, MaterialMaps, Model, MtlValues,
-    SurfaceParams,
+    alpha_from_ns, alpha_from_pr, Channel, Material, MaterialMaps, Model, MtlValues, SurfaceParams,
 };
 pub use mesh::{triangle_bounds, SurfacePoint, TriangleMesh};
 pub use normal_maps::{bump, keep_reflection_above, normal_map, uv_derivatives};
@@ -285,8 +284,12 @@ impl Scene {
     /// clamped to [0, 1] like `Kd`, times the vertex colour.
     pub fn albedo(&self, surface: &SurfacePoint) -> Vec3 {
         let material = self.material(surface);
-        self.colour(material, material.diffuse_texture, material.diffuse, surface.uv)
-            * surface.colour
+        self.colour(
+            material,
+            material.diffuse_texture,
+            material.diffuse,
+            surface.uv,
+        ) * surface.colour
     }
 
     /// A colour of `material` at `uv` from its constant and map: see

@@ -1,6 +1,7 @@
 //! Scenes built in code for the sampling and integrator tests.
 #![allow(dead_code)]
 
+pub mod bsdf;
 pub mod exr;
 pub mod fuzz;
 pub mod stats;
