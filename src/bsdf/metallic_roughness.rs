@@ -1,35 +1,45 @@
 //! The glTF 2.0 metallic-roughness material: the BRDF of the specification's Appendix B
-//! ("BRDF implementation"), with `KHR_materials_ior` and `KHR_materials_specular`, plus
-//! multiple-scattering energy compensation.
+//! ("BRDF implementation"), with `KHR_materials_ior` and `KHR_materials_specular`, made
+//! energy-conserving.
 //!
 //! In the local shading frame, with `h` the half vector of `wo` and `wi`, `v·h = wo·h`
-//! (= `wi·h`, so every term is reciprocal), `s = (1 − v·h)⁵` and `S = D G1(wo) G1(wi) /
-//! (4 cos θo cos θi)` ember's GGX reflection ([`Ggx`]) of `α = roughness²`:
+//! (= `wi·h`), `s = (1 − v·h)⁵` and `S = D G1(wo) G1(wi) / (4 cos θo cos θi)` ember's
+//! GGX reflection ([`Ggx`]) of `α = roughness²`:
 //!
 //! - metal: `S · (b + (1 − b) s)`, Schlick's Fresnel with `F0 = b` the base colour;
-//! - dielectric, the specification's `fresnel_mix` as `KHR_materials_specular` extends
-//!   it: `F = f0 + (1 − f0) s` with `f0 = min(((ior − 1)/(ior + 1))² · specular colour, 1)`
-//!   (0.04 for the defaults), then `(1 − w · max(F)) · b / π + w · F · S` for the
-//!   specular weight `w` (1 by default): the diffuse base keeps what the layer does not
-//!   reflect;
+//! - dielectric: a specular layer `w · F · S` with `F = f0 + (1 − f0) s`,
+//!   `f0 = min(((ior − 1)/(ior + 1))² · specular colour, 1)` (0.04 for the defaults) and
+//!   `w` the specular weight (1 by default), over a Lambert base `b / π`;
 //! - the material: `(1 − metallic) · dielectric + metallic · metal`.
 //!
-//! Single scattering loses the light that bounces more than once between microfacets
-//! (a third of it for a white metal at roughness 1). Kulla and Conty's lobe ("Revisiting
-//! Physically Based Shading at Imageworks", 2017) adds it back, reciprocally:
-//! `f_ms = F_ms (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg))`, whose albedo is exactly the
-//! missing `1 − E(μo)` ([`ggx_albedo`](super::ggx_albedo)), coloured by
-//! `F_ms = F_avg² E_avg / (1 − F_avg (1 − E_avg))` for each specular layer's
-//! hemispherical mean Fresnel `F_avg` (Schlick's: `f0 + (1 − f0)/21`).
+//! The base is where ember departs from the letter of Appendix B (which is
+//! non-normative). Its `fresnel_mix` weighs the base by `1 − w max F(v·h)`, but `v·h`
+//! stays near 1 for most `wi` while the layer reflects up to all of grazing light: a
+//! white dielectric of roughness 0.3 would reflect 22% more than it receives at 80°.
+//! ember weighs the base instead by what the layer lets through on the way in and out,
+//! `(1 − E_l(μo)) (1 − E_l(μi)) / (1 − E_l,avg)`, with `E_l` the layer's directional
+//! albedo (largest channel, as `max F` is) and `E_l,avg` its mean: reciprocal, and the
+//! base's albedo is exactly `1 − E_l(μo)`, so a white dielectric keeps all the light.
+//! The base's albedo `1 − E_l(μo)` is the specification's at normal incidence (about
+//! 0.96 for the defaults) and falls where the layer takes more, at grazing angles; a
+//! smooth base lit and seen along the normal is 5% brighter than the specification's.
 //!
-//! Sampling picks GGX's visible normals or a cosine direction (for the diffuse base and
-//! the compensation lobe) with a probability from their albedos at `wo`, so the density
-//! is the mixture of the two.
+//! Single scattering also loses the light that bounces more than once between
+//! microfacets (nearly two thirds for a white metal at roughness 1). Kulla and Conty's lobe
+//! ("Revisiting Physically Based Shading at Imageworks", 2017) adds it back,
+//! reciprocally: `f_ms = F_ms (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg))`, whose albedo is
+//! exactly the missing `1 − E(μo)`, coloured by `F_ms = F_avg² E_avg / (1 − F_avg (1 −
+//! E_avg))` for each layer's hemispherical mean Fresnel `F_avg` (Schlick's: `f0 + (1 −
+//! f0)/21`). The albedos `E` come from a table ([`ggx_albedo`](super::ggx_albedo)).
+//!
+//! Sampling picks GGX's visible normals or a cosine direction (for the base and the
+//! compensation lobe) with a probability from their albedos at `wo`, so the density is
+//! the mixture of the two.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
-use super::ggx_albedo::{average_albedo, directional_albedo};
+use super::ggx_albedo::{average_albedo, directional_albedo, Albedo};
 use super::{reflect, Ggx, DELTA_ALPHA};
 use crate::color::luminance;
 use crate::sampling::{choose_second, cosine_hemisphere};
@@ -87,6 +97,12 @@ fn multiple_scattering_fresnel(f_avg: Vec3, e_avg: f32) -> Vec3 {
     f_avg * f_avg * e_avg / (Vec3::ONE - f_avg * (1.0 - e_avg))
 }
 
+/// Schlick's mean over the hemisphere, `2 ∫ F(μ) μ dμ`.
+#[inline]
+fn mean_fresnel(f0: Vec3) -> Vec3 {
+    f0 + (Vec3::ONE - f0) / 21.0
+}
+
 /// The metallic-roughness lobes in the local frame (z = the shading normal, both
 /// directions above the surface).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -94,13 +110,20 @@ pub(super) struct Lobe {
     base: Vec3,
     metallic: f32,
     ggx: Ggx,
-    /// The dielectric's Schlick `F0`.
+    /// The dielectric's Schlick `F0`, and its largest channel.
     f0: Vec3,
+    f0_max: f32,
     /// The weight of the dielectric's specular layer.
     specular: f32,
-    /// `F_ms / (π (1 − E_avg))`, mixed over dielectric and metal: the compensation lobe
-    /// is this times `(1 − E(μo)) (1 − E(μi))`.
-    compensation: Vec3,
+    /// Kulla–Conty's `F_ms`, mixed over dielectric and metal, and `1 / (π (1 − E_avg))`:
+    /// the compensation lobe is their product times `(1 − E(μo)) (1 − E(μi))`.
+    multiple: Vec3,
+    multiple_norm: f32,
+    /// The dielectric layer's `F_ms` in its largest channel.
+    multiple_dielectric: f32,
+    /// `1 / (π (1 − E_layer,avg))`, the diffuse base's normalisation (0 when the layer
+    /// reflects everything).
+    diffuse_norm: f32,
 }
 
 impl Lobe {
@@ -108,48 +131,58 @@ impl Lobe {
         let alpha = m.alpha.max(DELTA_ALPHA);
         let f = (m.ior - 1.0) / (m.ior + 1.0);
         let f0 = (f * f * m.specular_colour).min(Vec3::ONE);
-        let e_avg = average_albedo(alpha);
+        let mean = average_albedo(alpha);
         // Smooth surfaces lose nothing worth a lobe, and 1 − E_avg would be noise.
-        let compensation = if 1.0 - e_avg < 1e-4 {
-            Vec3::ZERO
+        let (multiple_norm, dielectric, metal) = if 1.0 - mean.one < 1e-4 {
+            (0.0, Vec3::ZERO, Vec3::ZERO)
         } else {
-            let mean_fresnel = |f0: Vec3| f0 + (Vec3::ONE - f0) / 21.0;
-            let dielectric = multiple_scattering_fresnel(m.specular * mean_fresnel(f0), e_avg);
-            let metal = multiple_scattering_fresnel(mean_fresnel(m.base_colour), e_avg);
-            dielectric.lerp(metal, m.metallic) * FRAC_1_PI / (1.0 - e_avg)
+            let ms = |f_avg: Vec3| multiple_scattering_fresnel(f_avg, mean.one);
+            let dielectric = ms(m.specular * mean_fresnel(f0));
+            let metal = ms(mean_fresnel(m.base_colour));
+            (FRAC_1_PI / (1.0 - mean.one), dielectric, metal)
         };
-        Lobe {
+        let mut lobe = Lobe {
             base: m.base_colour,
             metallic: m.metallic,
             ggx: Ggx::new(alpha),
             f0,
+            f0_max: f0.max_element(),
             specular: m.specular,
-            compensation,
-        }
+            multiple: dielectric.lerp(metal, m.metallic),
+            multiple_norm,
+            multiple_dielectric: dielectric.max_element(),
+            diffuse_norm: 0.0,
+        };
+        let kept = 1.0 - lobe.layer_albedo(mean);
+        lobe.diffuse_norm = if kept > 1e-4 { FRAC_1_PI / kept } else { 0.0 };
+        lobe
+    }
+
+    /// What the dielectric's specular layer (compensation included) reflects of light
+    /// arriving where GGX's albedos are `a`, in its largest channel.
+    #[inline]
+    fn layer_albedo(&self, a: Albedo) -> f32 {
+        let single = self.f0_max * a.one + (1.0 - self.f0_max) * a.edge;
+        (self.specular * single + self.multiple_dielectric * (1.0 - a.one)).min(1.0)
     }
 
     /// The reflectance a denoiser is given: the base colour, plus the dielectric's
     /// specular reflection at normal incidence.
     pub(super) fn albedo(&self) -> Vec3 {
-        let dielectric =
-            self.base * (1.0 - self.specular * self.f0.max_element()) + self.specular * self.f0;
+        let dielectric = self.base * (1.0 - self.specular * self.f0_max) + self.specular * self.f0;
         dielectric.lerp(self.base, self.metallic).min(Vec3::ONE)
     }
 
-    /// The probability of drawing from GGX rather than the cosine lobe, from the
-    /// albedos of the specular layers and of what is cosine-shaped (the diffuse base and
-    /// the compensation), with Fresnel taken at `wo`.
+    /// The probability of drawing from GGX rather than the cosine lobe: the share of
+    /// the specular layers in the albedo at `wo`, the rest being cosine-shaped (the
+    /// diffuse base and the compensation).
     #[inline]
     pub(super) fn glossy_probability(&self, wo: Vec3) -> f32 {
-        let e = directional_albedo(wo.z, self.ggx.alpha());
-        let dielectric = self.specular * schlick(self.f0, wo.z);
-        let metal = schlick(self.base, wo.z);
-        let glossy = e * luminance(dielectric.lerp(metal, self.metallic));
-        let diffuse =
-            (1.0 - self.metallic) * luminance(self.base) * (1.0 - dielectric.max_element());
-        let compensation_albedo = std::f32::consts::PI * (1.0 - average_albedo(self.ggx.alpha()));
-        let compensation = luminance(self.compensation) * compensation_albedo * (1.0 - e);
-        let cosine_shaped = diffuse + compensation;
+        let a = directional_albedo(wo.z, self.ggx.alpha());
+        let dielectric = self.specular * a.schlick(self.f0);
+        let glossy = luminance(dielectric.lerp(a.schlick(self.base), self.metallic));
+        let diffuse = (1.0 - self.metallic) * luminance(self.base) * (1.0 - self.layer_albedo(a));
+        let cosine_shaped = diffuse + luminance(self.multiple) * (1.0 - a.one);
         // A lobe carrying under 1% is drawn by the other alone (GGX covers the
         // hemisphere); otherwise each keeps a tenth of the draws, whatever the estimate.
         if cosine_shaped <= 0.01 * glossy {
@@ -174,19 +207,22 @@ impl Lobe {
     /// `f(wo, wi) cos θi` and the density of `wi` for the lobe choice's probability.
     #[inline]
     pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3, glossy_probability: f32) -> (Vec3, f32) {
-        let h = (wo + wi).normalize();
-        let v_h = wo.dot(h);
-        let specular = self.ggx.reflectance_cos(wo, wi);
-        let cosine = wi.z * FRAC_1_PI;
-        let fresnel = schlick(self.f0, v_h);
-        let dielectric = self.base * ((1.0 - self.specular * fresnel.max_element()) * cosine)
-            + self.specular * specular * fresnel;
-        let metal = specular * schlick(self.base, v_h);
         let alpha = self.ggx.alpha();
-        let lost =
-            (1.0 - directional_albedo(wo.z, alpha)) * (1.0 - directional_albedo(wi.z, alpha));
-        let value = dielectric.lerp(metal, self.metallic) + self.compensation * (lost * wi.z);
-        let pdf = glossy_probability * self.ggx.pdf(wo, wi) + (1.0 - glossy_probability) * cosine;
+        let (a_o, a_i) = (
+            directional_albedo(wo.z, alpha),
+            directional_albedo(wi.z, alpha),
+        );
+        let v_h = wo.dot((wo + wi).normalize());
+        let specular = self.ggx.reflectance_cos(wo, wi);
+        let kept = (1.0 - self.layer_albedo(a_o)) * (1.0 - self.layer_albedo(a_i));
+        let dielectric = self.base * (kept * self.diffuse_norm * wi.z)
+            + self.specular * specular * schlick(self.f0, v_h);
+        let metal = specular * schlick(self.base, v_h);
+        let lost = (1.0 - a_o.one) * (1.0 - a_i.one);
+        let value = dielectric.lerp(metal, self.metallic)
+            + self.multiple * (lost * self.multiple_norm * wi.z);
+        let pdf = glossy_probability * self.ggx.pdf(wo, wi)
+            + (1.0 - glossy_probability) * wi.z * FRAC_1_PI;
         (value, pdf)
     }
 }

@@ -21,11 +21,12 @@
 
 mod dielectric;
 mod ggx_albedo;
+mod ggx_albedo_table;
 mod metallic_roughness;
 mod microfacet;
 
 pub use dielectric::{fresnel_dielectric, refract};
-pub use ggx_albedo::{average_albedo, directional_albedo};
+pub use ggx_albedo::{average_albedo, directional_albedo, Albedo};
 pub use metallic_roughness::{schlick, MetallicRoughness};
 pub use microfacet::{reflect, Ggx};
 
