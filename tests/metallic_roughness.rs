@@ -245,7 +245,7 @@ fn radiance<A: Accel>(tracer: &PathTracer<'_, A>, ray: Ray, seed: u64) -> (DVec3
 #[test]
 fn a_plane_under_a_white_sky_returns_its_albedo() {
     let base = Vec3::new(0.8, 0.5, 0.2);
-    let materials = vec![
+    let materials = [
         Material::metallic_roughness("rough plastic", base, 0.0, 1.0),
         Material::metallic_roughness("chrome", base, 1.0, 0.0),
     ];
