@@ -205,28 +205,12 @@ impl Bsdf {
                     let normal = ggx.sample_visible_normal(wo_local, Vec2::new(u1, u.y));
                     reflect(wo_local, normal)
                 };
-                let wi = self.world(wi_local, flip);
-                let (value, pdf) = self.eval_pdf(wo, wi);
-                (pdf > 0.0).then_some(BsdfSample {
-                    wi,
-                    value,
-                    pdf,
-                    delta: false,
-                    eta: 1.0,
-                })
+                self.non_delta_sample(wo, self.world(wi_local, flip))
             }
             Lobes::MetallicRoughness(lobe) => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
                 let p = lobe.glossy_probability(wo_local);
-                let wi = self.world(lobe.sample(wo_local, u, p), flip);
-                let (value, pdf) = self.eval_pdf(wo, wi);
-                (pdf > 0.0).then_some(BsdfSample {
-                    wi,
-                    value,
-                    pdf,
-                    delta: false,
-                    eta: 1.0,
-                })
+                self.non_delta_sample(wo, self.world(lobe.sample(wo_local, u, p), flip))
             }
             Lobes::Mirror { normal, grazing } => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
@@ -242,6 +226,20 @@ impl Bsdf {
             }
             Lobes::Dielectric { ior } => self.sample_dielectric(ior, wo, u.x),
         }
+    }
+
+    /// The sample of direction `wi`, drawn for `wo` by a lobe that is not a delta: its
+    /// value and density are what `eval` and `pdf` say of it (`None` where 0).
+    #[inline]
+    fn non_delta_sample(&self, wo: Vec3, wi: Vec3) -> Option<BsdfSample> {
+        let (value, pdf) = self.eval_pdf(wo, wi);
+        (pdf > 0.0).then_some(BsdfSample {
+            wi,
+            value,
+            pdf,
+            delta: false,
+            eta: 1.0,
+        })
     }
 
     /// `f(wo, wi) · |cos θi|` (0 for delta lobes).

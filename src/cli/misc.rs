@@ -359,3 +359,24 @@ fn build_info() -> Result<()> {
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ember::scene::Channel;
+
+    #[test]
+    fn a_gltf_material_is_described_with_its_factors_and_gltf_names() {
+        let mut m = Material::metallic_roughness("steel", Vec3::new(0.5, 0.5, 0.6), 1.0, 0.5);
+        m.diffuse_texture = Some(0);
+        m.maps.roughness = Some(1);
+        m.maps.roughness_channel = Channel::Green;
+        m.maps.metallic = Some(1);
+        m.maps.metallic_channel = Channel::Blue;
+        assert_eq!(
+            describe(&m),
+            "glTF metallic-roughness, base colour (0.5,0.5,0.6), metallic 1, roughness 0.5 \
+             (alpha 0.25), maps baseColorTexture metallicRoughnessTexture"
+        );
+    }
+}

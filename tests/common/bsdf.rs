@@ -68,6 +68,27 @@ pub fn assert_draws_follow_pdf(label: &str, bsdf: &Bsdf, n: Vec3, wo: Vec3, seed
     check_density(label, &density, n, kept, 0.01, binning, seed);
 }
 
+/// [`assert_draws_follow_pdf`] for every named lobe, at every polar angle of `wo` in
+/// `thetas` (degrees), from both sides of the two-sided surface of normal `n`.
+pub fn assert_every_lobe_draws_by_its_pdf(
+    lobes: &[(String, Bsdf)],
+    n: Vec3,
+    thetas: &[f32],
+    seed: u64,
+) {
+    let mut seed = seed;
+    for (name, bsdf) in lobes {
+        for &theta in thetas {
+            for side in [1.0f32, -1.0] {
+                let wo = side * direction(n, theta, 0.7);
+                let label = format!("{name}, θo = {theta}°, side {side}");
+                assert_draws_follow_pdf(&label, bsdf, n, wo, seed);
+                seed += 2;
+            }
+        }
+    }
+}
+
 /// `∫ pdf dω` by Monte Carlo over uniform directions equals the fraction of draws that
 /// yield a direction; returns the fraction that fails.
 pub fn assert_pdf_integrates_to_the_kept_draws(label: &str, bsdf: &Bsdf, wo: Vec3) -> f64 {
