@@ -52,7 +52,7 @@ pub struct MetallicRoughness {
     pub base_colour: Vec3,
     /// `metallicFactor` (× texture), in [0, 1].
     pub metallic: f32,
-    /// GGX roughness: `roughnessFactor² ` (× texture, before squaring).
+    /// GGX's α: `(roughnessFactor × texture)²`.
     pub alpha: f32,
     /// `KHR_materials_ior`'s index of the dielectric (1.5 by default).
     pub ior: f32,
