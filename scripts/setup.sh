@@ -29,7 +29,7 @@ if ((${#missing[@]})); then
 fi
 
 if ! command -v cargo >/dev/null; then
-  echo "setup: no Rust toolchain found: install one with rustup (Rust 1.80 or newer)" >&2
+  echo "setup: no Rust toolchain found: install one with rustup (Rust 1.87 or newer)" >&2
   exit 1
 fi
 bash "$(dirname "$0")/oidn.sh"

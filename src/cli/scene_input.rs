@@ -5,14 +5,13 @@
 use std::path::Path;
 
 use anyhow::{bail, Result};
-
-/// What ember reads, for messages.
-pub const FORMATS: &str = "OBJ (.obj) and ember scene files (.toml)";
+use ember::scene::{mesh_reader, MESH_FORMATS};
 
 /// A scene's format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneFormat {
-    Obj,
+    /// A mesh file in a format [`mesh_reader`] reads.
+    Mesh,
     /// An ember scene file: OBJs placed, cameras, environment, settings.
     SceneFile,
 }
@@ -21,19 +20,21 @@ impl SceneFormat {
     /// The format of `path` by its extension (any case), or one line naming what
     /// ember reads.
     pub fn of(path: &Path) -> Result<SceneFormat> {
+        if mesh_reader(path).is_some() {
+            return Ok(SceneFormat::Mesh);
+        }
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
         match ext.as_deref() {
-            Some("obj") => Ok(SceneFormat::Obj),
             Some("toml") => Ok(SceneFormat::SceneFile),
             Some(ext) => bail!(
-                "{}: ember reads {FORMATS}, not {}",
+                "{}: ember reads {MESH_FORMATS} and ember scene files (.toml), not {}",
                 path.display(),
                 known_format(ext).map_or_else(|| format!(".{ext} files"), str::to_owned)
             ),
             None => bail!(
-                "{}: ember reads {FORMATS}, told apart by the extension; this file has none",
+                "{}: ember reads {MESH_FORMATS} and ember scene files (.toml), told apart by the extension; this file has none",
                 path.display()
             ),
         }
@@ -43,7 +44,6 @@ impl SceneFormat {
 /// The name of a format users try, for the message.
 fn known_format(ext: &str) -> Option<&'static str> {
     Some(match ext {
-        "ply" => "PLY",
         "gltf" | "glb" => "glTF",
         "stl" => "STL",
         "fbx" => "FBX",

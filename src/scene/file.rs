@@ -16,7 +16,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::light_table::{read_light, LightEntry, PlacedLight, SceneLight};
-use super::{area_light_scene, load_obj_with, place, AreaLight, LoadOptions, LoadReport, Scene};
+use super::{area_light_scene, load_mesh, place, AreaLight, LoadOptions, LoadReport, Scene};
 use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
 use crate::io::InputFile;
 use crate::limits::{check_fits, human_bytes};
@@ -81,6 +81,9 @@ pub struct ObjFile {
     /// Resolved against the scene file's folder.
     pub path: PathBuf,
     span: Range<usize>,
+    /// `color`: the diffuse colour of the faces the file gives no material, and where
+    /// it was written.
+    pub color: Option<(Vec3, Range<usize>)>,
 }
 
 /// A parsed scene file.
@@ -133,6 +136,8 @@ pub(super) struct Entry {
     /// Row-major, acting on column vectors (as Mitsuba's `matrix`); the last row is
     /// `0 0 0 1`.
     pub(super) matrix: Option<Spanned<[[f32; 4]; 4]>>,
+    /// The diffuse colour of the faces the file gives no material (all of a PLY's).
+    pub(super) color: Option<Spanned<[f32; 3]>>,
 }
 
 #[derive(Clone, Deserialize)]
@@ -256,6 +261,13 @@ impl SceneFile {
             return Err(self.error(at, "obj.name", &message));
         }
         let transform = self.transform(&entry, "obj")?;
+        let color = match &entry.color {
+            Some(c) if !c.get_ref().iter().all(|x| (0.0..=1.0).contains(x)) => {
+                let message = "a diffuse colour: three numbers in [0, 1]";
+                return Err(self.error(c.span(), "obj.color", message));
+            }
+            c => c.as_ref().map(|c| (Vec3::from(*c.get_ref()), c.span())),
+        };
         self.placements.push(Placed {
             obj: self.objs.len(),
             transform,
@@ -265,6 +277,7 @@ impl SceneFile {
             name,
             path: self.folder().join(file_name.get_ref()),
             span: file_name.span(),
+            color,
         });
         Ok(())
     }
@@ -279,6 +292,10 @@ impl SceneFile {
                 "instance",
                 "an [[instance]] places an [[obj]] by its name: obj = \"NAME\"",
             ));
+        }
+        if let Some(c) = &entry.color {
+            let message = "an [[instance]] shares its [[obj]]'s mesh and colour: give color there";
+            return Err(self.error(c.span(), "instance.color", message));
         }
         let Some(of) = &entry.obj else {
             return Err(self.error(
@@ -414,9 +431,20 @@ impl SceneFile {
         self.check_memory(&[])?;
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
-            let scene = load_obj_with(&obj.path, options)
+            let (mut scene, report) = load_mesh(&obj.path, options)
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
-            loaded.push(scene);
+            if let Some((colour, span)) = &obj.color {
+                let Some(default) = report.default_material else {
+                    let message = format!(
+                        "{} gives every face a material: color is for faces without one \
+                         (all of a PLY's)",
+                        obj.path.display()
+                    );
+                    return Err(self.error(span.clone(), "obj.color", &message));
+                };
+                scene.materials[default as usize].diffuse = *colour;
+            }
+            loaded.push((scene, report));
         }
         let (mut scene, mut report) = self.place_objs(loaded)?;
         scene

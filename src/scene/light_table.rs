@@ -386,6 +386,7 @@ fn light_transform(file: &SceneFile, entry: &LightEntry) -> Result<Affine3A, Sce
         rotate,
         scale: entry.scale.clone(),
         matrix: entry.matrix.clone(),
+        color: None,
     };
     file.transform(&transform, "light")
 }

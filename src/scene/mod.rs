@@ -8,6 +8,7 @@ mod compose;
 mod cutout;
 mod environment;
 mod file;
+mod formats;
 mod instances;
 mod light_table;
 mod lights;
@@ -19,6 +20,7 @@ mod obj;
 mod obj_parallel;
 mod obj_text;
 mod opacity_map;
+mod ply;
 mod tangents;
 mod texture_files;
 mod texture_image;
@@ -35,6 +37,7 @@ pub use file::{
     parse_memory_bytes, placement_memory_bytes, ObjFile, Placed, SceneFile, SceneFileError,
     Setting, MEMORY_PER_PLACEMENT,
 };
+pub use formats::{load_mesh, mesh_reader, MeshReader, MESH_FORMATS};
 pub use instances::{place, Instancing, MeshPart};
 pub use light_table::{PlacedLight, SceneLight};
 pub use lights::{
@@ -53,6 +56,7 @@ pub use obj::{
 #[doc(hidden)]
 pub use obj_parallel::check_against_tobj;
 pub use opacity_map::AlphaMap;
+pub use ply::{load_ply, load_ply_with, MEMORY_PER_PLY_TRIANGLE, MEMORY_PER_PLY_VERTEX};
 pub use tangents::mikktspace_tangents;
 pub use texture_image::{Texels, Texture, TextureKind};
 pub use warnings::LoadOptions;
@@ -71,6 +75,10 @@ pub enum SceneError {
     Read(#[from] crate::io::ReadError),
     #[error("{path} is not a valid OBJ file: {reason}")]
     Obj { path: PathBuf, reason: String },
+    #[error("PLY file {path}: {reason}")]
+    Ply { path: PathBuf, reason: String },
+    #[error("{path}: ember reads {MESH_FORMATS} meshes, not {what}")]
+    Format { path: PathBuf, what: String },
     #[error("material library {path} (named by mtllib in {obj}): {reason}")]
     Mtl {
         path: PathBuf,

@@ -39,6 +39,9 @@ pub struct LoadReport {
     pub degenerate_dropped: usize,
     /// How the file wrote its vertex colours (`v x y z r g b`), if it has them.
     pub vertex_colours: Option<VertexColours>,
+    /// The material of the faces the file gives none (ember's default), when some
+    /// face uses it: the one a scene file's `color` sets.
+    pub default_material: Option<u32>,
     /// Non-fatal oddities, one line each, each naming its file (for example a `usemtl`
     /// with no definition).
     pub warnings: Vec<String>,
@@ -458,13 +461,18 @@ fn load_obj_text(
     report.vertices = scene.mesh.positions.len();
     report.materials = tobj_materials.len();
     report.emitters = scene.emitters.len();
+    report.default_material = scene
+        .mesh
+        .material
+        .contains(&default_material)
+        .then_some(default_material);
     report.warnings.extend(warnings.lines);
     Ok((scene, report))
 }
 
 /// The material of faces that name none, or one no library defines: matte grey, or
 /// white where the vertices carry colours, so that the colours are what is seen.
-fn default_material_for(mesh: &TriangleMesh) -> Material {
+pub(super) fn default_material_for(mesh: &TriangleMesh) -> Material {
     let mut default = Material::default();
     if !mesh.colours.is_empty() {
         default.diffuse = Vec3::ONE;

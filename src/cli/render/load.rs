@@ -1,4 +1,4 @@
-//! Loading a render's scene: the OBJ or the scene file's OBJs, the sky, the camera
+//! Loading a render's scene: the mesh file or the scene file's meshes, the sky, the camera
 //! (the automatic one framing the scene's bounds), and the Embree device to build on.
 
 use std::sync::Arc;
@@ -11,7 +11,7 @@ use ember::embree::Device;
 use ember::light::LightSamplerKind;
 use ember::render::Engine;
 use ember::scene::{
-    load_obj_with, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
+    load_mesh, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
 };
 use ember::wavefront::LaneScene;
 
@@ -94,7 +94,7 @@ fn check_wavefront(plan: &RenderPlan, scene: &Scene) -> Result<()> {
 pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let (mut scene, report) = match &plan.scene_file {
         Some(file) => file.load_scene(&plan.load)?,
-        None => load_obj_with(&plan.scene, &plan.load)?,
+        None => load_mesh(&plan.scene, &plan.load)?,
     };
     // A placed light of any kind lights the scene: no default sky then.
     let unlit = scene.emitters.is_empty()

@@ -274,7 +274,7 @@ impl RenderPlan {
         }
         let mut inputs: Vec<(&str, &Path)> = vec![("the scene", &self.scene)];
         if let Some(file) = &self.scene_file {
-            inputs.extend(file.objs.iter().map(|o| ("the OBJ", o.path.as_path())));
+            inputs.extend(file.objs.iter().map(|o| ("the mesh", o.path.as_path())));
         }
         if let Some(env) = &self.env {
             inputs.push(("the environment map", &env.path));
