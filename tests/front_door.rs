@@ -74,7 +74,7 @@ fn bare_ember_prints_help_and_clap_keeps_its_suggestions() {
 fn other_formats_are_named_with_what_ember_reads() {
     let dir = tempfile::tempdir().unwrap();
     for (name, what) in [
-        ("model.ply", "not PLY"),
+        ("model.stl", "not STL"),
         ("model.gltf", "not glTF"),
         ("photo.png", "not images"),
         ("model.xyz", "not .xyz files"),
@@ -87,7 +87,9 @@ fn other_formats_are_named_with_what_ember_reads() {
             assert!(!out.status.success());
             assert_eq!(err.lines().count(), 1, "{err}");
             assert!(
-                err.starts_with(&format!("error: {name}: ember reads OBJ (.obj)")),
+                err.starts_with(&format!(
+                    "error: {name}: ember reads OBJ (.obj), PLY (.ply)"
+                )),
                 "{err}"
             );
             assert!(err.contains(what), "{err}");
