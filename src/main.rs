@@ -72,7 +72,7 @@ The guide: docs/guide.md; every flag: docs/reference/cli.md.";
 
 #[derive(Subcommand)]
 enum Command {
-    /// Render an OBJ or a scene file (.toml) to PNG, EXR or HDR.
+    /// Render a mesh (OBJ, PLY) or a scene file (.toml) to PNG, EXR or HDR.
     ///
     /// PNG is 8-bit sRGB (tone-mapped); EXR and HDR hold linear radiance. Progressive:
     /// Ctrl-C writes the image so far and a checkpoint that --resume continues.

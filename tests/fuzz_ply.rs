@@ -168,11 +168,14 @@ fn damaged(mut bytes: Vec<u8>, damage: &[Damage]) -> Vec<u8> {
                 bytes.splice(a.max(b)..a.max(b), piece);
             }
             Damage::Count(element, n) => {
-                let text = String::from_utf8_lossy(&bytes).into_owned();
+                // Found in the bytes themselves: earlier damage may have left them
+                // no longer UTF-8.
                 let key = format!("element {element} ");
-                if let Some(at) = text.find(&key) {
+                let found = bytes.windows(key.len()).position(|w| w == key.as_bytes());
+                if let Some(at) = found {
                     let start = at + key.len();
-                    let end = start + text[start..].find('\n').unwrap_or(0);
+                    let line = bytes[start..].iter().position(|&b| b == b'\n');
+                    let end = start + line.unwrap_or(0);
                     bytes.splice(start..end, n.to_string().into_bytes());
                 }
             }

@@ -14,6 +14,9 @@
 //! A program of its own (`harness = false`): the child runs one case, which a test
 //! function of the standard harness could not do alone.
 
+#[allow(dead_code)]
+#[path = "common/ply.rs"]
+mod ply;
 #[allow(dead_code, unused_imports)]
 #[path = "../src/cli/bench/procedural.rs"]
 mod procedural;
@@ -117,6 +120,9 @@ fn work(case: &str, input: &Path) -> Result<(), String> {
             .map(drop)
             .map_err(|e| text(&e)),
         "obj-load" => load_obj(input).map(drop).map_err(|e| text(&e)),
+        "ply-load" => ember::scene::load_ply(input)
+            .map(drop)
+            .map_err(|e| text(&e)),
         "exr-read" => LayeredImage::read_exr(input)
             .map(drop)
             .map_err(|e| text(&e)),
@@ -229,6 +235,7 @@ fn parent() {
     let d = dir.path();
     scene_files(d);
     material_libraries(d);
+    ply_files(d);
     exr_files(d);
     images(d);
     #[cfg(feature = "denoise")]
@@ -341,6 +348,49 @@ fn material_libraries(d: &Path) {
             + count * ember::scene::MEMORY_PER_MATERIAL
             + obj.len() as u64 * ember::scene::MEMORY_PER_OBJ_BYTE;
         pin("obj-load", &path, estimate);
+    }
+}
+
+/// PLY meshes of 200 000 vertices: with every attribute and a triangle each, in binary
+/// and in ASCII; positions alone; and one polygon of them all, whose triangles the
+/// header does not count (its list grows as it is fanned).
+fn ply_files(d: &Path) {
+    use ember::scene::{MEMORY_PER_PLY_TRIANGLE, MEMORY_PER_PLY_VERTEX};
+    use ply::{Encoding, PlyMesh};
+    let n = 200_000usize;
+    let positions: Vec<[f32; 3]> = (0..n)
+        .map(|i| {
+            let a = i as f32 * 1e-3;
+            [a.cos() * (1.0 + a), a.sin(), (i % 7) as f32]
+        })
+        .collect();
+    let triangles: Vec<Vec<i64>> = (0..n as i64)
+        .map(|i| vec![i, (i + 1) % n as i64, (i + 2) % n as i64])
+        .collect();
+    let full = PlyMesh::new(&positions, &triangles)
+        .with("float", "nx", |_| 0.0)
+        .with("float", "ny", |_| 1.0)
+        .with("float", "nz", |_| 0.0)
+        .with("float", "u", |i| i as f64 / n as f64)
+        .with("float", "v", |_| 0.5)
+        .with("uchar", "red", |i| (i % 256) as f64)
+        .with("uchar", "green", |_| 7.0)
+        .with("uchar", "blue", |_| 9.0);
+    let bare = PlyMesh::new(&positions, &triangles);
+    let mut fan = PlyMesh::new(&positions, &[(0..n as i64).collect()]);
+    fan.list_types = ("uint".into(), "int".into());
+    let estimate = |triangles: usize| {
+        n as u64 * MEMORY_PER_PLY_VERTEX + triangles as u64 * MEMORY_PER_PLY_TRIANGLE
+    };
+    for (name, mesh, encoding, triangles) in [
+        ("full.ply", &full, Encoding::LittleEndian, n),
+        ("full-ascii.ply", &full, Encoding::Ascii, n),
+        ("bare.ply", &bare, Encoding::BigEndian, n),
+        ("fan.ply", &fan, Encoding::LittleEndian, n - 1),
+    ] {
+        let path = d.join(name);
+        std::fs::write(&path, mesh.bytes(encoding)).unwrap();
+        pin("ply-load", &path, estimate(triangles));
     }
 }
 

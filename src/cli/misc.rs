@@ -71,7 +71,7 @@ pub fn compare(args: CompareArgs) -> Result<()> {
 
 #[derive(Args)]
 pub struct InfoArgs {
-    /// An OBJ or a scene file (.toml) to describe, instead of the build.
+    /// A mesh (.obj, .ply) or a scene file (.toml) to describe, instead of the build.
     ///
     /// What `ember render SCENE` would read of it: triangles, materials, emitters and
     /// sky, textures, bounds, vertex colours, the camera as flags, and its warnings.

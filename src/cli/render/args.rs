@@ -30,7 +30,7 @@ const ADVANCED: &str = "Advanced";
 #[derive(Args)]
 #[command(after_long_help = "The guide (docs/guide.md) explains these flags by task.")]
 pub struct RenderArgs {
-    /// The OBJ scene, or a scene file (.toml).
+    /// The mesh (.obj, .ply), or a scene file (.toml).
     ///
     /// An OBJ's material libraries and textures are read from beside it. A scene file
     /// holds OBJs with transforms and instances, cameras, the environment and settings,
