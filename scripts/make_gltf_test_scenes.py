@@ -1,0 +1,200 @@
+#!/usr/bin/env python3
+"""Writes the glTF scenes ember is compared on against Blender Cycles
+(benches/cycles_gltf.py), with Blender's own glTF exporter: real exporter output, as a
+Blender user's files are.
+
+    VENV/bin/python scripts/make_gltf_test_scenes.py OUT_DIR
+
+VENV is a Python environment with Blender as a module (`python3 -m venv VENV &&
+VENV/bin/pip install bpy numpy`). Writes, each a .glb with its camera:
+
+- cornell-original.glb: meshes/CornellBox-Original.obj with its MTL, imported by
+  Blender's OBJ importer (its MTL mapping: Kd as base colour, Ns as roughness, Ke as
+  emission) and exported as it stands; the camera of the Cornell references (eye
+  0,1,3.9, looking at 0,1,0, 40 degrees vertical).
+- spheres.glb: a row of six spheres, metallic 0 and 1 by roughness 0.2, 0.5 and 1.0,
+  base colour (0.9, 0.6, 0.3), on a floor of base colour 0.5, roughness 1; for a
+  uniform sky (glTF has no sky: the benchmark gives both renderers the same one).
+- interior.glb: a closed box room (walls 0.7 grey, floor 0.5 with a red and a green
+  wall), a cube and a sphere, lit only by a point light and a spot light
+  (KHR_lights_punctual, which the exporter writes from Blender's watts).
+
+Each file is rebuilt from scratch on every run. The exporter's order of a sphere's
+triangles in its index buffer differs from run to run; the geometry does not.
+"""
+
+import math
+import os
+import sys
+
+import bpy
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+REPO = os.path.dirname(HERE)
+SIZE = 128  # the render resolution the camera's aspect ratio is taken from
+
+
+def empty_scene():
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x = SIZE
+    scene.render.resolution_y = SIZE
+    return scene
+
+
+def add_camera(scene, eye, look_at, vfov_degrees):
+    """A perspective camera at `eye` looking at `look_at`, y up (glTF's frame: the
+    exporter turns Blender's z-up into glTF's y-up, so positions here are Blender's
+    (x, -z, y) of the glTF point)."""
+    data = bpy.data.cameras.new("camera")
+    data.sensor_fit = "VERTICAL"
+    data.angle_y = math.radians(vfov_degrees)
+    camera = bpy.data.objects.new("camera", data)
+    scene.collection.objects.link(camera)
+    camera.location = blender(eye)
+    direction = camera.location - blender_vector(look_at)
+    camera.rotation_euler = direction.to_track_quat("Z", "Y").to_euler()
+    scene.camera = camera
+    return camera
+
+
+def blender(p):
+    """glTF's (x, y, z), y up, as Blender's z-up coordinates."""
+    return (p[0], -p[2], p[1])
+
+
+def blender_vector(p):
+    import mathutils
+
+    return mathutils.Vector(blender(p))
+
+
+def material(name, base, metallic=0.0, roughness=1.0):
+    m = bpy.data.materials.new(name)
+    m.use_nodes = True
+    bsdf = m.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*base, 1.0)
+    bsdf.inputs["Metallic"].default_value = metallic
+    bsdf.inputs["Roughness"].default_value = roughness
+    return m
+
+
+def add_mesh(scene, name, make, mat, location=(0, 0, 0), smooth=False):
+    """A primitive made by `make` (a bpy.ops.mesh operator call), at a glTF location."""
+    make()
+    obj = bpy.context.active_object
+    obj.name = name
+    obj.location = blender(location)
+    obj.data.materials.append(mat)
+    if smooth:
+        bpy.ops.object.shade_smooth()
+    return obj
+
+
+def export(path):
+    bpy.ops.export_scene.gltf(
+        filepath=path,
+        export_format="GLB",
+        export_cameras=True,
+        export_lights=True,
+        export_texcoords=False,
+        export_apply=True,
+        export_yup=True,
+    )
+    print(f"wrote {path} ({os.path.getsize(path)} bytes)")
+
+
+def cornell(out):
+    scene = empty_scene()
+    obj = os.path.join(REPO, "meshes", "CornellBox-Original.obj")
+    bpy.ops.wm.obj_import(filepath=obj, forward_axis="NEGATIVE_Z", up_axis="Y")
+    add_camera(scene, (0.0, 1.0, 3.9), (0.0, 1.0, 0.0), 40.0)
+    export(os.path.join(out, "cornell-original.glb"))
+
+
+def spheres(out):
+    scene = empty_scene()
+    floor = material("floor", (0.5, 0.5, 0.5))
+    add_mesh(
+        scene, "floor", lambda: bpy.ops.mesh.primitive_plane_add(size=40.0), floor
+    )
+    for row, metallic in enumerate((0.0, 1.0)):
+        for column, roughness in enumerate((0.2, 0.5, 1.0)):
+            name = f"metallic{metallic:g}-roughness{roughness:g}"
+            m = material(name, (0.9, 0.6, 0.3), metallic, roughness)
+            x = (column - 1) * 1.1
+            z = (row - 0.5) * 1.1
+            make = lambda: bpy.ops.mesh.primitive_uv_sphere_add(
+                segments=32, ring_count=16, radius=0.5
+            )
+            add_mesh(scene, name, make, m, (x, 0.5, z), smooth=True)
+    add_camera(scene, (0.0, 3.0, 4.0), (0.0, 0.3, 0.0), 40.0)
+    export(os.path.join(out, "spheres.glb"))
+
+
+def interior(out):
+    scene = empty_scene()
+    grey = material("walls", (0.7, 0.7, 0.7))
+    red = material("red", (0.7, 0.1, 0.1))
+    green = material("green", (0.1, 0.6, 0.1))
+    # The room: a cube seen from inside (normals flipped), 4 wide, 3 high, 4 deep.
+    room = add_mesh(
+        scene, "room", lambda: bpy.ops.mesh.primitive_cube_add(size=1.0), grey, (0, 1.5, 0)
+    )
+    room.scale = (4.0, 4.0, 3.0)
+    bpy.ops.object.mode_set(mode="EDIT")
+    bpy.ops.mesh.select_all(action="SELECT")
+    bpy.ops.mesh.flip_normals()
+    bpy.ops.object.mode_set(mode="OBJECT")
+    room.data.materials.append(red)
+    room.data.materials.append(green)
+    # Blender's cube: faces 0 (-x) and 2 (+x) as the coloured walls.
+    room.data.polygons[0].material_index = 1
+    room.data.polygons[2].material_index = 2
+    add_mesh(
+        scene,
+        "block",
+        lambda: bpy.ops.mesh.primitive_cube_add(size=0.8),
+        material("block", (0.8, 0.8, 0.6)),
+        (-0.7, 0.4, -0.6),
+    )
+    add_mesh(
+        scene,
+        "ball",
+        lambda: bpy.ops.mesh.primitive_uv_sphere_add(segments=32, ring_count=16, radius=0.45),
+        material("ball", (0.3, 0.4, 0.8), 0.0, 0.5),
+        (0.8, 0.45, 0.2),
+        smooth=True,
+    )
+    point = bpy.data.lights.new("point", "POINT")
+    point.energy = 150.0  # W, as the exporter writes it: 150 * 683 / (4 pi) cd
+    point.shadow_soft_size = 0.0
+    lamp = bpy.data.objects.new("point", point)
+    lamp.location = blender((0.5, 2.6, 0.8))
+    scene.collection.objects.link(lamp)
+    spot = bpy.data.lights.new("spot", "SPOT")
+    spot.energy = 300.0
+    spot.shadow_soft_size = 0.0
+    spot.spot_size = math.radians(50.0)
+    spot.spot_blend = 0.3
+    beam = bpy.data.objects.new("spot", spot)
+    beam.location = blender((-1.2, 2.8, 1.2))
+    direction = beam.location - blender_vector((-0.7, 0.0, -0.6))
+    beam.rotation_euler = direction.to_track_quat("Z", "Y").to_euler()
+    scene.collection.objects.link(beam)
+    add_camera(scene, (0.0, 1.5, 1.9), (0.0, 1.0, -2.0), 60.0)
+    export(os.path.join(out, "interior.glb"))
+
+
+def main():
+    if len(sys.argv) != 2:
+        sys.exit(__doc__)
+    out = sys.argv[1]
+    os.makedirs(out, exist_ok=True)
+    cornell(out)
+    spheres(out)
+    interior(out)
+
+
+if __name__ == "__main__":
+    main()
