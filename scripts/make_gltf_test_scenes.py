@@ -167,13 +167,13 @@ def interior(out):
         smooth=True,
     )
     point = bpy.data.lights.new("point", "POINT")
-    point.energy = 150.0  # W, as the exporter writes it: 150 * 683 / (4 pi) cd
+    point.energy = 40.0  # W, which the exporter writes as 40 * 683 / (4 pi) cd
     point.shadow_soft_size = 0.0
     lamp = bpy.data.objects.new("point", point)
     lamp.location = blender((0.5, 2.6, 0.8))
     scene.collection.objects.link(lamp)
     spot = bpy.data.lights.new("spot", "SPOT")
-    spot.energy = 300.0
+    spot.energy = 80.0
     spot.shadow_soft_size = 0.0
     spot.spot_size = math.radians(50.0)
     spot.spot_blend = 0.3
