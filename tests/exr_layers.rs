@@ -161,7 +161,7 @@ fn the_same_image_always_encodes_to_the_same_bytes() {
     let mut noise = awkward(3 * px, 9);
     // Flat bands compress almost at once; noisy ones do not.
     for (i, v) in noise.iter_mut().enumerate() {
-        if (i / 3 / w as usize / 64) % 2 == 0 {
+        if (i / 3 / w as usize / 64).is_multiple_of(2) {
             *v = 0.25;
         }
     }

@@ -84,7 +84,7 @@ fn square_bin_masses(tree: &QuadTree, bins: usize) -> Vec<f64> {
     let depth = tree.depth();
     let points = 1usize << depth;
     assert!(
-        points % bins == 0,
+        points.is_multiple_of(bins),
         "{bins} bins align with cells of depth {depth}"
     );
     let per_bin = points / bins;

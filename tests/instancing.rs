@@ -187,7 +187,7 @@ struct EveryThird {
 
 impl HitFilter for EveryThird {
     fn accept(&self, prim: u32, _u: f32, _v: f32) -> bool {
-        (prim % self.triangles) % 3 != 0
+        !(prim % self.triangles).is_multiple_of(3)
     }
 }
 

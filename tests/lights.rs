@@ -633,7 +633,7 @@ fn a_point_light_in_a_closed_room_conserves_energy() {
             let face = rng.below(6) as usize;
             let axis = face / 2;
             let mut q = [0.0f32; 3];
-            q[axis] = if face % 2 == 0 { 1.0 } else { -1.0 };
+            q[axis] = if face.is_multiple_of(2) { 1.0 } else { -1.0 };
             q[(axis + 1) % 3] = 2.0 * rng.f32() - 1.0;
             q[(axis + 2) % 3] = 2.0 * rng.f32() - 1.0;
             let dir = (Vec3::from(q) - centre).normalize();

@@ -52,7 +52,7 @@ pub fn compare(image: &Image, reference: &Image) -> Result<ImageError, SizeMisma
 /// large render can be judged against a smaller reference. `None` when the size is not
 /// a multiple of `factor` (or `factor` is 0).
 pub fn downsampled(image: &Image, factor: u32) -> Option<Image> {
-    if factor == 0 || image.width % factor != 0 || image.height % factor != 0 {
+    if factor == 0 || !image.width.is_multiple_of(factor) || !image.height.is_multiple_of(factor) {
         return None;
     }
     let (width, height) = (image.width / factor, image.height / factor);

@@ -4,7 +4,7 @@
 /// How many children an inner node has: a multiple of 4, the SIMD width of the slab
 /// test.
 pub const WIDTH: usize = 8;
-const _: () = assert!(WIDTH % 4 == 0);
+const _: () = assert!(WIDTH.is_multiple_of(4));
 
 /// Most references a leaf holds: two blocks of four triangles, each tested at once.
 /// (The leaf code could count up to 16 blocks; leaves of up to two measured best.)
