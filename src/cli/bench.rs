@@ -48,7 +48,7 @@ use report::Loading;
 
 #[derive(Args)]
 pub struct BenchArgs {
-    /// OBJ meshes to benchmark on (materials with Ke > 0 become the shadow rays' targets).
+    /// Meshes (.obj, .ply) to benchmark on (materials with Ke > 0 become the shadow rays' targets).
     meshes: Vec<PathBuf>,
     /// Procedural meshes, KIND:COUNT with KIND `sphere` (a subdivided unit sphere) or
     /// `soup` (random triangles in a cube) and COUNT the number of triangles, with an
@@ -105,7 +105,7 @@ fn parse_min_time(s: &str) -> Result<f64, String> {
 
 pub fn run(args: BenchArgs) -> Result<()> {
     if args.meshes.is_empty() && args.procedural.is_empty() {
-        bail!("nothing to benchmark: give an OBJ mesh or --procedural KIND:COUNT");
+        bail!("nothing to benchmark: give a mesh (.obj, .ply) or --procedural KIND:COUNT");
     }
     // Fail on an impossible output before spending minutes measuring.
     if let Some(path) = &args.json_out {

@@ -124,7 +124,7 @@ impl Loading {
     /// One line for the table and the progress output.
     pub fn summary(&self) -> String {
         format!(
-            "scene read in {:.3} s (OBJ {:.1} MB at {:.0} MB/s, with its MTL and textures)",
+            "scene read in {:.3} s ({:.1} MB at {:.0} MB/s, with its materials and textures)",
             self.seconds,
             self.file_bytes as f64 / 1e6,
             self.mb_per_s()
