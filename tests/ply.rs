@@ -96,6 +96,7 @@ fn render_lit(mut scene: Scene, eye: Vec3, look_at: Vec3, fov: f32) -> Image {
         light_sampler: Default::default(),
         adaptive: None,
         guiding: None,
+        engine: Default::default(),
     };
     ember::render::render(&built.scene, &built.accel, &camera, &settings, &|_| {}).0
 }

@@ -10,9 +10,7 @@ use super::plan::{CameraRequest, RenderPlan};
 use ember::embree::Device;
 use ember::light::LightSamplerKind;
 use ember::render::Engine;
-use ember::scene::{
-    load_mesh, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
-};
+use ember::scene::{load_mesh, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight};
 use ember::wavefront::LaneScene;
 
 /// The byte count in environment variable `name`, if set; anything but a whole number
