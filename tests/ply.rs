@@ -13,7 +13,7 @@ use common::{ember_in as ember, with_embree};
 use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::RenderSettings;
-use ember::scene::{load_mesh, load_obj, load_ply, CameraSettings, Environment, Scene, SceneFile};
+use ember::scene::{load_model, load_obj, load_ply, CameraSettings, Environment, Scene, SceneFile};
 use glam::Vec3;
 
 /// A box of six quads (integer corners, which every PLY type holds), the corners of each counter-clockwise seen from outside.
@@ -120,7 +120,8 @@ fn every_encoding_renders_the_image_of_the_obj_twin() {
     assert!(expected.pixels.iter().any(|p| p.max_element() > 0.1));
     for encoding in Encoding::ALL {
         let path = write(dir.path(), "box.ply", &mesh.bytes(encoding));
-        let (scene, report) = load_mesh(&path, &Default::default()).unwrap();
+        let model = load_model(&path, &Default::default()).unwrap();
+        let (scene, report) = (model.scene, model.report);
         assert_eq!(report.triangles, 14, "{encoding:?}");
         assert_eq!(report.vertices, 12, "{encoding:?}");
         let image = render_box(scene);
@@ -209,9 +210,7 @@ fn vertex_colours_multiply_the_diffuse_colour() {
     let dir = tempfile::tempdir().unwrap();
     // uchar colours 0-255, over ember's white (the default where vertices have colours).
     let bytes = plane()
-        .with("uchar", "red", |_| 255.0)
-        .with("uchar", "green", |_| 102.0)
-        .with("uchar", "blue", |_| 0.0)
+        .with_colour("uchar", [255.0, 102.0, 0.0])
         .bytes(Encoding::LittleEndian);
     let path = write(dir.path(), "bytes.ply", &bytes);
     let (scene, report) = load_ply(&path).unwrap();
@@ -222,9 +221,7 @@ fn vertex_colours_multiply_the_diffuse_colour() {
     assert_radiance("uchar", plane_radiance(scene), Vec3::new(1.0, 0.4, 0.0));
     // float colours 0-1, times a scene file's colour.
     let bytes = plane()
-        .with("float", "red", |_| 0.2)
-        .with("float", "green", |_| 0.4)
-        .with("float", "blue", |_| 0.8)
+        .with_colour("float", [0.2, 0.4, 0.8])
         .bytes(Encoding::Ascii);
     write(dir.path(), "unit.ply", &bytes);
     let toml = "[[obj]]\nfile = \"unit.ply\"\ncolor = [0.5, 0.5, 1]\n";
@@ -350,9 +347,7 @@ fn face_bytes(encoding: Encoding) -> usize {
 fn ember_info_shows_a_ply_scene_as_it_shows_an_obj() {
     let dir = tempfile::tempdir().unwrap();
     let bytes = box_on_floor()
-        .with("uchar", "red", |_| 255.0)
-        .with("uchar", "green", |_| 255.0)
-        .with("uchar", "blue", |_| 0.0)
+        .with_colour("uchar", [255.0, 255.0, 0.0])
         .bytes(Encoding::LittleEndian);
     write(dir.path(), "box.ply", &bytes);
     let out = ember(&["info", "box.ply"], dir.path());
@@ -456,7 +451,7 @@ fn hostile() -> Vec<(&'static str, Vec<u8>, &'static str)> {
         ("float-indices.ply", crafted("ascii", &format!("element vertex 3\n{XYZ}element face 1\nproperty list uchar float vertex_indices\n"), b"0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"), "face property vertex_indices is list uchar float"),
         ("no-indices.ply", crafted("ascii", &format!("element vertex 3\n{XYZ}element face 1\nproperty int material\n"), b""), "its faces have no vertex_indices"),
         ("int-colours.ply", crafted("ascii", &format!("element vertex 1\n{XYZ}property int red\nproperty int green\nproperty int blue\n"), b"0 0 0 1 2 3\n"), "its vertex colours are int, int and int"),
-        ("bright.ply", PlyMesh::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[vec![0, 1, 2]]).with("float", "red", |_| 2.0).with("float", "green", |_| 0.0).with("float", "blue", |_| 0.0).bytes(Encoding::Ascii), "vertex 0: its colour 2 0 0 is not in [0, 1]"),
+        ("bright.ply", PlyMesh::new(&[[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]], &[vec![0, 1, 2]]).with_colour("float", [2.0, 0.0, 0.0]).bytes(Encoding::Ascii), "vertex 0: its colour 2 0 0 is not in [0, 1]"),
         ("garbage.ply", crafted("ascii", &format!("element vertex 1\n{XYZ}"), b"0 zero 0\n"), "vertex 0 of 1 (line 8)"),
         ("flat.ply", PlyMesh::new(&[[0.0; 3], [1.0, 0.0, 0.0], [2.0, 0.0, 0.0]], &[vec![0, 1, 2]]).bytes(Encoding::Ascii), "has no triangles to render (all 1 triangles are degenerate)"),
         ("points.ply", PlyMesh::new(&[[0.0; 3], [1.0, 0.0, 0.0]], &[vec![0, 1]]).bytes(Encoding::Ascii), "has no triangles to render (it has no faces of three or more corners)"),
@@ -469,12 +464,9 @@ fn hostile_files_are_one_error_line_naming_the_file() {
     let dir = tempfile::tempdir().unwrap();
     for (name, bytes, says) in hostile() {
         write(dir.path(), name, &bytes);
-        for command in ["render", "info"] {
-            let out = ember(
-                &[command, name, "--spp", "1", "--width", "8", "--height", "8"]
-                    [..if command == "info" { 2 } else { 8 }],
-                dir.path(),
-            );
+        let small = ["--spp", "1", "--width", "8", "--height", "8"];
+        for args in [vec!["info", name], [&["render", name][..], &small].concat()] {
+            let out = ember(&args, dir.path());
             let err = String::from_utf8_lossy(&out.stderr);
             assert_eq!(out.status.code(), Some(1), "{name}: {err}");
             assert_eq!(err.lines().count(), 1, "{name}: {err}");
@@ -586,7 +578,7 @@ fn scene_files_check_color_where_it_is_written() {
         ("[[obj]]\nfile = \"plane.ply\"\ncolor = [0.5, 0.5]\n", "scene.toml:3:"),
         ("[[obj]]\nfile = \"plane.ply\"\nname = \"p\"\n[[instance]]\nobj = \"p\"\ncolor = [1, 1, 1]\n", "scene.toml:6:9: instance.color: an [[instance]] shares its [[obj]]'s mesh and colour"),
         ("[[obj]]\nfile = \"lit.obj\"\ncolor = [1, 0, 0]\n", "lit.obj gives every face a material: color is for faces without one"),
-        ("[[obj]]\nfile = \"model.stl\"\n", "model.stl: ember reads OBJ (.obj), PLY (.ply) meshes, not .stl files"),
+        ("[[obj]]\nfile = \"model.stl\"\n", "model.stl: ember reads OBJ (.obj), PLY (.ply) models, not .stl files"),
     ] {
         write(dir.path(), "scene.toml", toml.as_bytes());
         let out = ember(&["info", "scene.toml"], dir.path());

@@ -5,13 +5,13 @@
 use std::path::Path;
 
 use anyhow::{bail, Result};
-use ember::scene::{mesh_reader, MESH_FORMATS};
+use ember::scene::{ModelFormat, MODEL_FORMATS};
 
 /// A scene's format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneFormat {
-    /// A mesh file in a format [`mesh_reader`] reads.
-    Mesh,
+    /// A model file ember reads ([`ModelFormat`]): OBJ, PLY.
+    Model,
     /// An ember scene file: OBJs placed, cameras, environment, settings.
     SceneFile,
 }
@@ -20,8 +20,8 @@ impl SceneFormat {
     /// The format of `path` by its extension (any case), or one line naming what
     /// ember reads.
     pub fn of(path: &Path) -> Result<SceneFormat> {
-        if mesh_reader(path).is_some() {
-            return Ok(SceneFormat::Mesh);
+        if ModelFormat::of(path).is_some() {
+            return Ok(SceneFormat::Model);
         }
         let ext = path
             .extension()
@@ -29,12 +29,12 @@ impl SceneFormat {
         match ext.as_deref() {
             Some("toml") => Ok(SceneFormat::SceneFile),
             Some(ext) => bail!(
-                "{}: ember reads {MESH_FORMATS} and ember scene files (.toml), not {}",
+                "{}: ember reads {MODEL_FORMATS} and ember scene files (.toml), not {}",
                 path.display(),
                 known_format(ext).map_or_else(|| format!(".{ext} files"), str::to_owned)
             ),
             None => bail!(
-                "{}: ember reads {MESH_FORMATS} and ember scene files (.toml), told apart by the extension; this file has none",
+                "{}: ember reads {MODEL_FORMATS} and ember scene files (.toml), told apart by the extension; this file has none",
                 path.display()
             ),
         }

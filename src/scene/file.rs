@@ -16,7 +16,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::light_table::{read_light, LightEntry, PlacedLight, SceneLight};
-use super::{area_light_scene, load_mesh, place, AreaLight, LoadOptions, LoadReport, Scene};
+use super::{area_light_scene, load_model, place, AreaLight, LoadOptions, LoadReport, Scene};
 use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
 use crate::io::InputFile;
 use crate::limits::{check_fits, human_bytes};
@@ -431,8 +431,9 @@ impl SceneFile {
         self.check_memory(&[])?;
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
-            let (mut scene, report) = load_mesh(&obj.path, options)
+            let model = load_model(&obj.path, options)
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
+            let (mut scene, report) = (model.scene, model.report);
             if let Some((colour, span)) = &obj.color {
                 let Some(default) = report.default_material else {
                     let message = format!(

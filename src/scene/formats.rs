@@ -1,39 +1,57 @@
-//! The mesh formats ember reads, told apart by their extension: a format is one arm of
-//! [`mesh_reader`]'s match, and every place that takes a mesh (`ember render` and
-//! `ember info`, scene files' `[[obj]]` entries, `ember bench`) reads through it.
+//! The model files ember reads, told apart by their extension, and the one function
+//! that loads any of them: wherever an OBJ is accepted (the scene `ember render` and
+//! `ember info` are given, a scene file's `[[obj]]` entries, `ember bench`'s meshes),
+//! so is every format here. A format is one variant and one arm of each match.
 
 use std::path::Path;
 
 use super::{load_obj_with, load_ply_with, LoadOptions, LoadReport, Scene, SceneError};
 
-/// The mesh formats, for messages (a list that "and ember scene files" can end).
-pub const MESH_FORMATS: &str = "OBJ (.obj), PLY (.ply)";
+/// What ember reads, for messages (a list that "and ember scene files" can end).
+pub const MODEL_FORMATS: &str = "OBJ (.obj), PLY (.ply)";
 
-/// A mesh reader: the file's scene, and what the load found.
-pub type MeshReader = fn(&Path, &LoadOptions) -> Result<(Scene, LoadReport), SceneError>;
-
-/// The reader of the mesh file `path`, by its extension in any case; `None` where
-/// ember reads no mesh of that kind.
-pub fn mesh_reader(path: &Path) -> Option<MeshReader> {
-    let extension = path.extension()?.to_str()?.to_ascii_lowercase();
-    Some(match extension.as_str() {
-        "obj" => load_obj_with,
-        "ply" => load_ply_with,
-        _ => return None,
-    })
+/// A model file's format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelFormat {
+    Obj,
+    Ply,
 }
 
-/// Loads the mesh file `path` with the reader of its format.
-pub fn load_mesh(path: &Path, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneError> {
-    let Some(read) = mesh_reader(path) else {
-        let what = match path.extension() {
-            Some(e) => format!(".{} files", e.to_string_lossy()),
-            None => "files without an extension".to_owned(),
-        };
-        return Err(SceneError::Format {
-            path: path.to_owned(),
-            what,
-        });
+impl ModelFormat {
+    /// The format of `path` by its extension (any case); `None` for one ember does
+    /// not read.
+    pub fn of(path: &Path) -> Option<ModelFormat> {
+        let ext = path.extension()?.to_string_lossy().to_ascii_lowercase();
+        match ext.as_str() {
+            "obj" => Some(ModelFormat::Obj),
+            "ply" => Some(ModelFormat::Ply),
+            _ => None,
+        }
+    }
+}
+
+/// A loaded model: the scene, and what is worth telling.
+pub struct LoadedModel {
+    pub scene: Scene,
+    pub report: LoadReport,
+}
+
+/// Loads the model at `path` by its format; a file of another extension is refused in
+/// one line that names what ember reads.
+pub fn load_model(path: &Path, options: &LoadOptions) -> Result<LoadedModel, SceneError> {
+    let (scene, report) = match ModelFormat::of(path) {
+        Some(ModelFormat::Obj) => load_obj_with(path, options)?,
+        Some(ModelFormat::Ply) => load_ply_with(path, options)?,
+        None => {
+            let what = match path.extension() {
+                Some(e) => format!(".{} files", e.to_string_lossy()),
+                None => "files without an extension".to_owned(),
+            };
+            return Err(SceneError::Format {
+                path: path.to_owned(),
+                what,
+            });
+        }
     };
-    read(path, options)
+    Ok(LoadedModel { scene, report })
 }

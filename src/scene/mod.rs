@@ -37,7 +37,7 @@ pub use file::{
     parse_memory_bytes, placement_memory_bytes, ObjFile, Placed, SceneFile, SceneFileError,
     Setting, MEMORY_PER_PLACEMENT,
 };
-pub use formats::{load_mesh, mesh_reader, MeshReader, MESH_FORMATS};
+pub use formats::{load_model, LoadedModel, ModelFormat, MODEL_FORMATS};
 pub use instances::{place, Instancing, MeshPart};
 pub use light_table::{PlacedLight, SceneLight};
 pub use lights::{
@@ -77,7 +77,7 @@ pub enum SceneError {
     Obj { path: PathBuf, reason: String },
     #[error("PLY file {path}: {reason}")]
     Ply { path: PathBuf, reason: String },
-    #[error("{path}: ember reads {MESH_FORMATS} meshes, not {what}")]
+    #[error("{path}: ember reads {MODEL_FORMATS} models, not {what}")]
     Format { path: PathBuf, what: String },
     #[error("material library {path} (named by mtllib in {obj}): {reason}")]
     Mtl {

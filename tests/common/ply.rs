@@ -59,6 +59,14 @@ impl PlyMesh {
         self
     }
 
+    /// Adds `red green blue` of `ty`, the same colour at every vertex.
+    pub fn with_colour(self, ty: &str, rgb: [f64; 3]) -> PlyMesh {
+        let [r, g, b] = rgb;
+        self.with(ty, "red", move |_| r)
+            .with(ty, "green", move |_| g)
+            .with(ty, "blue", move |_| b)
+    }
+
     /// The header, up to and including `end_header`.
     pub fn header(&self, encoding: Encoding) -> String {
         let mut h = format!(

@@ -5,7 +5,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::procedural::Procedural;
-use ember::scene::{load_mesh, SceneError, TriangleMesh};
+use ember::scene::{load_model, SceneError, TriangleMesh};
 
 /// A mesh to benchmark on, and the triangles that emit (shadow rays aim at them when
 /// there are any, else at random points in the bounding box).
@@ -21,7 +21,8 @@ pub struct BenchMesh {
 impl BenchMesh {
     /// The triangles of a mesh file (OBJ, PLY); its emissive triangles are the lights.
     pub fn from_obj(path: &Path) -> Result<BenchMesh, SceneError> {
-        let (scene, report) = load_mesh(path, &Default::default())?;
+        let model = load_model(path, &Default::default())?;
+        let (scene, report) = (model.scene, model.report);
         let name = path.file_name().map_or_else(
             || path.display().to_string(),
             |n| n.to_string_lossy().into(),

@@ -10,7 +10,9 @@ use super::plan::{CameraRequest, RenderPlan};
 use ember::embree::Device;
 use ember::light::LightSamplerKind;
 use ember::render::Engine;
-use ember::scene::{load_mesh, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight};
+use ember::scene::{
+    load_model, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
+};
 use ember::wavefront::LaneScene;
 
 /// The byte count in environment variable `name`, if set; anything but a whole number
@@ -92,7 +94,7 @@ fn check_wavefront(plan: &RenderPlan, scene: &Scene) -> Result<()> {
 pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
     let (mut scene, report) = match &plan.scene_file {
         Some(file) => file.load_scene(&plan.load)?,
-        None => load_mesh(&plan.scene, &plan.load)?,
+        None => load_model(&plan.scene, &plan.load).map(|m| (m.scene, m.report))?,
     };
     // A placed light of any kind lights the scene: no default sky then.
     let unlit = scene.emitters.is_empty()

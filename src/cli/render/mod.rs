@@ -109,7 +109,7 @@ pub fn load_as_rendered(path: &std::path::Path, strict: bool) -> Result<LoadedSc
             let file = SceneFile::read(path)?;
             (scene_file::render_args(&file, &user)?, Some(file))
         }
-        SceneFormat::Mesh => (scene_file::command_line_args(&user)?, None),
+        SceneFormat::Model => (scene_file::command_line_args(&user)?, None),
     };
     let mut plan = RenderPlan::from_args(args);
     plan.scene_file = file;
