@@ -499,7 +499,7 @@ impl SceneFile {
         let bounds: Vec<[Vec3; 2]> = loaded
             .iter()
             .map(|(scene, _)| {
-                let (lo, hi) = scene.mesh.bounds();
+                let (lo, hi) = scene.bounds();
                 [lo, hi]
             })
             .collect();
@@ -584,8 +584,15 @@ pub fn placement_memory_bytes(loaded: &[&Scene], placements: impl Iterator<Item 
         })
         .sum();
     let emitters = |obj: usize| loaded.get(obj).map_or(0, |s| s.emitters.len() as u64);
+    // An instanced scene (a glTF's nodes placing its meshes) is placed instance by instance.
+    let inner = |obj: usize| {
+        loaded
+            .get(obj)
+            .and_then(|s| s.instancing.as_ref())
+            .map_or(1, |i| i.instances.len() as u64)
+    };
     let placed: u64 = placements
-        .map(|obj| MEMORY_PER_PLACEMENT + emitters(obj) * MEMORY_PER_PLACED_EMITTER)
+        .map(|obj| inner(obj) * MEMORY_PER_PLACEMENT + emitters(obj) * MEMORY_PER_PLACED_EMITTER)
         .sum();
     meshes + placed
 }
