@@ -5,14 +5,13 @@
 use std::path::Path;
 
 use anyhow::{bail, Result};
-
-/// What ember reads, for messages.
-pub const FORMATS: &str = "OBJ (.obj) and ember scene files (.toml)";
+use ember::scene::{ModelFormat, MODEL_FORMATS};
 
 /// A scene's format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneFormat {
-    Obj,
+    /// A model file ember reads ([`ModelFormat`]): OBJ, glTF.
+    Model,
     /// An ember scene file: OBJs placed, cameras, environment, settings.
     SceneFile,
 }
@@ -24,16 +23,19 @@ impl SceneFormat {
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if ModelFormat::of(path).is_some() {
+            return Ok(SceneFormat::Model);
+        }
         match ext.as_deref() {
-            Some("obj") => Ok(SceneFormat::Obj),
             Some("toml") => Ok(SceneFormat::SceneFile),
             Some(ext) => bail!(
-                "{}: ember reads {FORMATS}, not {}",
+                "{}: ember reads {MODEL_FORMATS} and ember scene files (.toml), not {}",
                 path.display(),
                 known_format(ext).map_or_else(|| format!(".{ext} files"), str::to_owned)
             ),
             None => bail!(
-                "{}: ember reads {FORMATS}, told apart by the extension; this file has none",
+                "{}: ember reads {MODEL_FORMATS} and ember scene files (.toml), told apart \
+                 by the extension; this file has none",
                 path.display()
             ),
         }
@@ -44,7 +46,6 @@ impl SceneFormat {
 fn known_format(ext: &str) -> Option<&'static str> {
     Some(match ext {
         "ply" => "PLY",
-        "gltf" | "glb" => "glTF",
         "stl" => "STL",
         "fbx" => "FBX",
         "dae" => "COLLADA",

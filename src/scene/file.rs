@@ -16,7 +16,7 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::light_table::{read_light, LightEntry, PlacedLight, SceneLight};
-use super::{area_light_scene, load_obj_with, place, AreaLight, LoadOptions, LoadReport, Scene};
+use super::{area_light_scene, load_model, place, AreaLight, LoadOptions, LoadReport, Scene};
 use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
 use crate::io::InputFile;
 use crate::limits::{check_fits, human_bytes};
@@ -113,6 +113,9 @@ struct Document {
     camera: BTreeMap<String, Table>,
     #[serde(default)]
     obj: Vec<Spanned<Entry>>,
+    /// `[[mesh]]`: the same as `[[obj]]`, for any model file ember reads.
+    #[serde(default)]
+    mesh: Vec<Spanned<Entry>>,
     #[serde(default)]
     instance: Vec<Spanned<Entry>>,
     #[serde(default)]
@@ -126,6 +129,7 @@ struct Document {
 pub(super) struct Entry {
     pub(super) file: Option<Spanned<String>>,
     pub(super) name: Option<Spanned<String>>,
+    #[serde(alias = "mesh")]
     pub(super) obj: Option<Spanned<String>>,
     pub(super) translate: Option<Spanned<[f32; 3]>>,
     pub(super) rotate: Option<Spanned<Rotation>>,
@@ -209,7 +213,11 @@ impl SceneFile {
             .into_iter()
             .map(|(name, table)| (name, settings(table)))
             .collect();
-        for entry in document.obj {
+        // `[[obj]]` and `[[mesh]]` entries, in the order they are written.
+        let mut models: Vec<Spanned<Entry>> = document.obj;
+        models.extend(document.mesh);
+        models.sort_by_key(|entry| entry.span().start);
+        for entry in models {
             file.add_obj(entry)?;
         }
         for entry in document.instance {
@@ -220,7 +228,11 @@ impl SceneFile {
             file.lights.push(light);
         }
         if file.objs.is_empty() {
-            return Err(file.error(0..0, "obj", "the scene has no [[obj]] to render"));
+            return Err(file.error(
+                0..0,
+                "mesh",
+                "the scene has no [[mesh]] (or [[obj]]) to render",
+            ));
         }
         Ok(file)
     }
@@ -414,9 +426,9 @@ impl SceneFile {
         self.check_memory(&[])?;
         let mut loaded = Vec::with_capacity(self.objs.len());
         for obj in &self.objs {
-            let scene = load_obj_with(&obj.path, options)
+            let model = load_model(&obj.path, options)
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
-            loaded.push(scene);
+            loaded.push((model.scene, model.report));
         }
         let (mut scene, mut report) = self.place_objs(loaded)?;
         scene

@@ -43,10 +43,11 @@ pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&Ca
         plan.scene.display(),
         report.summary()
     );
-    if loaded.automatic_camera || verbosity::verbose() {
-        let how = match loaded.automatic_camera {
-            true => "automatic, framing the scene's bounds from +z",
-            false => "as given",
+    if loaded.automatic_camera || loaded.file_camera.is_some() || verbosity::verbose() {
+        let how = match (&loaded.file_camera, loaded.automatic_camera) {
+            (Some(name), _) => format!("the file's camera {name:?}"),
+            (None, true) => "automatic, framing the scene's bounds from +z".to_owned(),
+            (None, false) => "as given".to_owned(),
         };
         eprintln!("camera ({how}): {}", camera_flags(&loaded.camera_settings));
     }

@@ -129,8 +129,8 @@ fn slot(info: &gltf::texture::Info<'_>, name: &'static str) -> Result<Slot, Stri
     })
 }
 
-/// `KHR_texture_transform`'s matrix: translation · rotation · scale, with the
-/// extension's rotation (counter-clockwise in texture space, whose v points down).
+/// `KHR_texture_transform`'s matrix, translation · rotation · scale, acting on glTF's
+/// texture coordinates (before ember flips `v`).
 pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Result<Mat3, String> {
     let numbers = [offset[0], offset[1], rotation, scale[0], scale[1]];
     if !numbers.iter().all(|x| x.is_finite()) {
@@ -138,7 +138,8 @@ pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Re
     }
     let (s, c) = rotation.sin_cos();
     let translation = Mat3::from_cols(Vec3::X, Vec3::Y, Vec3::new(offset[0], offset[1], 1.0));
-    let rotation = Mat3::from_cols(Vec3::new(c, -s, 0.0), Vec3::new(s, c, 0.0), Vec3::Z);
+    // The extension's GLSL `mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`, column by column.
+    let rotation = Mat3::from_cols(Vec3::new(c, s, 0.0), Vec3::new(-s, c, 0.0), Vec3::Z);
     let scale = Mat3::from_diagonal(Vec3::new(scale[0], scale[1], 1.0));
     Ok(translation * rotation * scale)
 }

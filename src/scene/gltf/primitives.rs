@@ -180,8 +180,12 @@ fn append_primitive(
             "index {i} is out of range: there are {count} vertices"
         ));
     }
+    // Only the vertices the indices use: primitives often share one accessor of all
+    // of a mesh's vertices, each using a part of it.
+    let (used, indices) = compact(indices, count);
+    let count = used.as_ref().map_or(count, Vec::len);
     let offset = mesh.positions.len();
-    let points = read_vectors::<3>(&positions, buffers, false)?;
+    let points = pick(&used, read_vectors::<3>(&positions, buffers, false)?);
     for (i, p) in points.into_iter().enumerate() {
         let p = transform.transform_point3(Vec3::from(p));
         if !p.is_finite() {
@@ -197,7 +201,7 @@ fn append_primitive(
         .map(|a| read_vectors::<3>(&a, buffers, false))
         .transpose()?
         .map(|values| {
-            values
+            pick(&used, values)
                 .into_iter()
                 .map(|n| {
                     let n = Vec3::from(n);
@@ -222,7 +226,7 @@ fn append_primitive(
         .map(|a| read_vectors::<2>(&a, buffers, false))
         .transpose()?
         .map(|values| {
-            values
+            pick(&used, values)
                 .into_iter()
                 .map(|t| {
                     let t = uv.apply(Vec2::from(t));
@@ -246,7 +250,7 @@ fn append_primitive(
         .map(|a| read_vectors::<3>(&a, buffers, true))
         .transpose()?
         .map(|values| {
-            values
+            pick(&used, values)
                 .into_iter()
                 .map(|c| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE))
                 .map(|c| if c.is_finite() { c } else { Vec3::ONE })
@@ -276,6 +280,36 @@ fn append_primitive(
         mesh.material.push(material);
     }
     Ok(())
+}
+
+/// The vertices `indices` use, in order of first use, and the indices renumbered to
+/// them; `None` (and the indices as they are) when they use every one of `count`.
+fn compact(indices: Vec<u32>, count: usize) -> (Option<Vec<u32>>, Vec<u32>) {
+    let mut new_id = vec![u32::MAX; count];
+    let mut used = Vec::new();
+    let renumbered: Vec<u32> = indices
+        .iter()
+        .map(|&i| {
+            let id = &mut new_id[i as usize];
+            if *id == u32::MAX {
+                *id = used.len() as u32;
+                used.push(i);
+            }
+            *id
+        })
+        .collect();
+    match used.len() == count {
+        true => (None, indices),
+        false => (Some(used), renumbered),
+    }
+}
+
+/// The values of the vertices `used` (all of them without a list).
+fn pick<T: Copy>(used: &Option<Vec<u32>>, values: Vec<T>) -> Vec<T> {
+    match used {
+        Some(used) => used.iter().map(|&i| values[i as usize]).collect(),
+        None => values,
+    }
 }
 
 /// Appends a primitive's `values` of one attribute (or, where it has none but others
