@@ -1,0 +1,236 @@
+//! glTF 2.0 scenes against mathematics and against ember's own OBJ path: a point, spot
+//! and directional light of `KHR_lights_punctual` in candela and lux at 683 lm/W, placed
+//! by their nodes; the Cornell box as glTF beside the OBJ; a mesh two nodes share
+//! stored once and rendered as two copies are, on both backends; the file's cameras;
+//! `KHR_texture_transform`; alpha modes; strips and fans; and hostile files, each one
+//! `error:` line and a non-zero exit.
+
+mod common;
+
+use std::f64::consts::PI;
+use std::path::{Path, PathBuf};
+
+use common::gltf::{floor_quad, GltfBuilder};
+use common::{ember_in, with_embree, Built};
+use ember::accel::{Accel, Ray};
+use ember::image::{compare, Image};
+use ember::integrator::{IntegratorKind, PathTracer, RayCount};
+use ember::sampling::Rng;
+use ember::scene::{load_gltf, LoadOptions};
+use glam::{DVec3, Vec3};
+use serde_json::json;
+
+const ALBEDO: f32 = 0.8;
+
+/// A white (base colour [`ALBEDO`]) dielectric of roughness 1, metallic 0.
+fn rough_white() -> serde_json::Value {
+    json!({"pbrMetallicRoughness": {"baseColorFactor": [ALBEDO, ALBEDO, ALBEDO, 1.0],
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}})
+}
+
+/// A floor of side 100 at y = 0 facing up, of material `material`.
+fn with_floor(gltf: &mut GltfBuilder, material: serde_json::Value) {
+    let m = gltf.material(material);
+    let (p, uv, i) = floor_quad(50.0, 0.0);
+    let mesh = gltf.mesh(&p, Some(&uv), &i, Some(m));
+    gltf.node(json!({"mesh": mesh}), true);
+}
+
+fn write(dir: &Path, name: &str, bytes: &[u8]) -> PathBuf {
+    let path = dir.join(name);
+    std::fs::write(&path, bytes).unwrap();
+    path
+}
+
+fn load(gltf: &GltfBuilder) -> Built {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write(dir.path(), "scene.gltf", gltf.to_gltf().as_bytes());
+    let loaded = load_gltf(&path, &LoadOptions::default()).expect("loads");
+    with_embree(loaded.scene)
+}
+
+/// The radiance leaving the floor at `(x, 0, z)` straight up, each of `n` samples.
+fn floor_radiance(built: &Built, x: f32, z: f32, n: u64) -> Vec<Vec3> {
+    let tracer = PathTracer::new(&built.scene, &built.accel, 4, IntegratorKind::Mis);
+    let mut count = RayCount::default();
+    (0..n)
+        .map(|i| {
+            let mut rng = Rng::for_sample(3, 0, i);
+            tracer.radiance(Ray::new(Vec3::new(x, 3.0, z), -Vec3::Y), &mut rng, &mut count)
+        })
+        .collect()
+}
+
+/// The BRDF times π of the rough white dielectric seen from its normal with light
+/// arriving at `cos θ`, in ember's present mapping and in glTF's BRDF alike: Lambert
+/// `(1 − F) ρ` plus GGX at α = 1 (`D = 1/π` everywhere, Smith's `G1(θ) = 2cos θ/(1 +
+/// cos θ)`, `F = 0.04`): `F D G / (4 cos θ) · π = 0.04 / (2 (1 + cos θ))`.
+fn white_brdf_times_pi(cos: f64) -> f64 {
+    0.96 * f64::from(ALBEDO) + 0.04 / (2.0 * (1.0 + cos))
+}
+
+fn assert_close(label: &str, got: Vec3, expected: DVec3, relative: f64) {
+    for c in 0..3 {
+        let (g, e) = (f64::from(got[c]), expected[c]);
+        assert!(
+            (g - e).abs() <= relative * e.abs() + 1e-7,
+            "{label}, channel {c}: {g} against {e}"
+        );
+    }
+}
+
+/// A point light of `I` cd placed by its node at height `h` gives the floor at distance
+/// `d` the irradiance `(I/683) cos θ / d²`, under it and at an angle; one light sample
+/// of a delta light is exact.
+#[test]
+fn a_point_light_in_candela_gives_i_over_683_cos_theta_over_d_squared() {
+    let mut gltf = GltfBuilder::default();
+    with_floor(&mut gltf, rough_white());
+    let candela = [1000.0f32, 500.0, 250.0];
+    let light = gltf.light(json!({"type": "point", "intensity": 1000.0, "color": [1.0, 0.5, 0.25]}));
+    let at = [0.2f32, 1.5, -0.1];
+    gltf.node(
+        json!({"translation": at, "extensions": {"KHR_lights_punctual": {"light": light}}}),
+        true,
+    );
+    let built = load(&gltf);
+    let light_at = Vec3::from(at).as_dvec3();
+    for (x, z) in [(0.2f32, -0.1f32), (1.7, -0.1), (-1.0, 1.2)] {
+        let to_light = light_at - DVec3::new(x.into(), 0.0, z.into());
+        let d = to_light.length();
+        let cos = to_light.y / d;
+        let intensity = DVec3::from(candela.map(f64::from)) / 683.0;
+        let irradiance = intensity * cos / (d * d);
+        let expected = irradiance * white_brdf_times_pi(cos) / PI;
+        for got in floor_radiance(&built, x, z, 8) {
+            assert_close(&format!("({x}, {z})"), got, expected, 2e-3);
+        }
+    }
+}
+
+/// A spot turned by its node to point down lights fully inside its inner cone and
+/// not at all outside its outer one; a sun of `E` lux turned 60° from the zenith gives
+/// `(E/683) cos 60°`.
+#[test]
+fn spot_and_directional_lights_follow_their_nodes() {
+    // −Z turned to −Y: a quarter turn about +X, clockwise.
+    let down = [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2];
+    let mut gltf = GltfBuilder::default();
+    with_floor(&mut gltf, rough_white());
+    let spot = gltf.light(json!({"type": "spot", "intensity": 683.0,
+        "spot": {"innerConeAngle": 0.3, "outerConeAngle": 0.5}}));
+    gltf.node(
+        json!({"translation": [0.0, 2.0, 0.0], "rotation": down,
+               "extensions": {"KHR_lights_punctual": {"light": spot}}}),
+        true,
+    );
+    let built = load(&gltf);
+    // tan 0.2 · 2 is inside the inner cone, tan 0.6 · 2 outside the outer one.
+    let inside = 2.0 * 0.2f32.tan();
+    let cos = 2.0 / (4.0 + f64::from(inside * inside)).sqrt();
+    let d2 = 4.0 + f64::from(inside * inside);
+    let expected = DVec3::ONE * cos / d2 * white_brdf_times_pi(cos) / PI;
+    assert_close("inside", floor_radiance(&built, inside, 0.0, 1)[0], expected, 2e-3);
+    let outside = 2.0 * 0.6f32.tan();
+    assert_eq!(floor_radiance(&built, 0.0, outside, 1)[0], Vec3::ZERO);
+
+    let mut gltf = GltfBuilder::default();
+    with_floor(&mut gltf, rough_white());
+    let sun = gltf.light(json!({"type": "directional", "intensity": 6830.0}));
+    // Down, then tilted 60° about +Z.
+    let tilt = glam::Quat::from_rotation_z(60f32.to_radians())
+        * glam::Quat::from_array(down);
+    gltf.node(
+        json!({"rotation": tilt.to_array(), "translation": [5.0, 9.0, 1.0],
+               "extensions": {"KHR_lights_punctual": {"light": sun}}}),
+        true,
+    );
+    let built = load(&gltf);
+    let cos = 0.5;
+    let expected = DVec3::ONE * 10.0 * cos * white_brdf_times_pi(cos) / PI;
+    assert_close("sun", floor_radiance(&built, 0.3, 0.7, 1)[0], expected, 2e-3);
+}
+
+/// Two quads in front of the camera under a white sky.
+fn two_quads(shared: bool) -> GltfBuilder {
+    let mut gltf = GltfBuilder::default();
+    let red = gltf.material(json!({"pbrMetallicRoughness": {
+        "baseColorFactor": [0.8, 0.2, 0.1, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}}));
+    let quad: [[f32; 3]; 4] = [[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]];
+    let indices = [0, 1, 2, 0, 2, 3];
+    let first = gltf.mesh(&quad, None, &indices, Some(red));
+    let second = match shared {
+        true => first,
+        false => gltf.mesh(&quad, None, &indices, Some(red)),
+    };
+    gltf.node(json!({"mesh": first, "translation": [-0.6, 0.0, 0.0]}), true);
+    // The second turned about +Y and mirrored: the instance's normals and winding turn.
+    gltf.node(
+        json!({"mesh": second, "translation": [0.6, 0.1, -0.3],
+               "rotation": [0.0, 0.258819, 0.0, 0.9659258], "scale": [1.0, -1.2, 1.0]}),
+        true,
+    );
+    gltf
+}
+
+/// A mesh two nodes place is stored once and placed by two instances, and renders as
+/// the same mesh written twice (baked into the world) does, on both backends.
+#[test]
+fn a_mesh_two_nodes_share_is_stored_once_and_renders_as_two_copies() {
+    let dir = tempfile::tempdir().unwrap();
+    let shared = write(dir.path(), "shared.gltf", two_quads(true).to_gltf().as_bytes());
+    let copies = write(dir.path(), "copies.glb", &two_quads(false).to_glb());
+    let loaded = load_gltf(&shared, &LoadOptions::default()).unwrap();
+    assert_eq!(loaded.scene.mesh.triangles.len(), 2, "the mesh once");
+    let instancing = loaded.scene.instancing.as_ref().expect("instanced");
+    assert_eq!(instancing.instances.len(), 2);
+    assert_eq!(instancing.placed_triangles(), 4);
+    let baked = load_gltf(&copies, &LoadOptions::default()).unwrap();
+    assert!(baked.scene.instancing.is_none());
+    assert_eq!(baked.scene.mesh.triangles.len(), 4);
+    for accel in ["embree", "bvh"] {
+        let mut images = Vec::new();
+        for file in ["shared.gltf", "copies.glb"] {
+            let out = format!("{file}-{accel}.exr");
+            let run = ember_in(
+                &[
+                    "render", file, "--accel", accel, "--spp", "16", "--width", "48",
+                    "--height", "32", "--eye", "0,0,3", "--look-at", "0,0,0", "-o", &out,
+                ],
+                dir.path(),
+            );
+            assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+            images.push(Image::load(&dir.path().join(&out)).unwrap());
+        }
+        let error = compare(&images[0], &images[1]).unwrap();
+        assert!(error.rel_mse < 1e-4, "{accel}: relMSE {}", error.rel_mse);
+        let (a, b) = (images[0].mean(), images[1].mean());
+        assert!((a - b).abs().max_element() < 1e-3 * a.max_element(), "{accel}: {a} {b}");
+    }
+}
+
+/// The glTF Cornell box (the OBJ's geometry, Kd as base colour, metallic 0, roughness
+/// 1: scripts/make_gltf_test_data.py) renders close to the OBJ. They differ by glTF's
+/// dielectric: a GGX layer of Fresnel 0.04 over a Lambert base of 0.96 times the base
+/// colour, where the MTL's walls are Lambert `Kd` alone; the layer sends back some of
+/// what the base absorbs, most at grazing angles.
+#[test]
+fn the_cornell_box_as_gltf_renders_close_to_the_obj() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let dir = tempfile::tempdir().unwrap();
+    let mut means = Vec::new();
+    for scene in ["tests/data/gltf/cornell-box.gltf", "meshes/CornellBox-Original.obj"] {
+        let out = dir.path().join("out.exr");
+        let mut args = vec!["render", scene, "--spp", "64", "--width", "48", "--height", "48"];
+        args.extend(common::CORNELL_CAMERA);
+        args.extend(["-o", out.to_str().unwrap()]);
+        let run = ember_in(&args, root);
+        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        means.push(Image::load(&out).unwrap().mean());
+    }
+    let (gltf, obj) = (means[0], means[1]);
+    for c in 0..3 {
+        let ratio = gltf[c] / obj[c];
+        assert!((ratio - 1.0).abs() < 0.05, "channel {c}: glTF {gltf}, OBJ {obj}");
+    }
+}
