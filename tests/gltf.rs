@@ -234,3 +234,170 @@ fn the_cornell_box_as_gltf_renders_close_to_the_obj() {
         assert!((ratio - 1.0).abs() < 0.05, "channel {c}: glTF {gltf}, OBJ {obj}");
     }
 }
+
+/// The camera a file's node places is the default, printed as flags (its eye the
+/// node's origin, looking along its −Z with `yfov`); `--camera` picks another by name
+/// or index, and the flags given override it.
+#[test]
+fn the_files_first_camera_is_the_default_and_camera_picks_another() {
+    let mut gltf = GltfBuilder::default();
+    with_floor(&mut gltf, rough_white());
+    gltf.json["cameras"] = json!([
+        {"name": "front", "type": "perspective", "perspective": {"yfov": 0.5, "znear": 0.1}},
+        {"name": "top", "type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.1, "aspectRatio": 1.5}},
+    ]);
+    gltf.node(json!({"camera": 0, "translation": [0.0, 1.0, 5.0]}), true);
+    let down = [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2];
+    gltf.node(json!({"camera": 1, "translation": [0.0, 8.0, 0.0], "rotation": down}), true);
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "cams.gltf", gltf.to_gltf().as_bytes());
+    let info = ember_in(&["info", "cams.gltf"], dir.path());
+    let out = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    let fov = 0.5f32.to_degrees();
+    let line = format!("camera (the file's camera \"front\"): --eye 0,1,5 --look-at 0,1,4 --fov {fov}");
+    assert!(out.contains(&line), "{out}");
+    assert!(out.contains("cameras: 2"), "{out}");
+    let render = |extra: &[&str]| {
+        let mut args = vec!["render", "cams.gltf", "--spp", "1", "--width", "8", "--height", "8"];
+        args.extend(extra);
+        let run = ember_in(&args, dir.path());
+        (run.status.success(), String::from_utf8_lossy(&run.stderr).into_owned())
+    };
+    for pick in ["top", "1"] {
+        let (ok, err) = render(&["--camera", pick]);
+        assert!(ok, "{err}");
+        let fov = 1.0f32.to_degrees();
+        assert!(err.contains(&format!("camera (the file's camera \"top\"): --eye 0,8,0")), "{err}");
+        assert!(err.contains(&format!("--fov {fov}")), "{err}");
+    }
+    let (ok, err) = render(&["--camera", "front", "--fov", "60", "--eye", "0,2,6"]);
+    assert!(ok, "{err}");
+    assert!(err.contains("--eye 0,2,6 --look-at 0,1,4 --fov 60"), "{err}");
+    let (ok, err) = render(&["--camera", "side"]);
+    assert!(!ok);
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(err.starts_with("error: --camera \"side\"") && err.contains("\"front\", \"top\""), "{err}");
+}
+
+/// A 2×1 texture, black on the left and white on the right, as a PNG in a data: URI.
+fn black_white_texture(gltf: &mut GltfBuilder, transform: Option<serde_json::Value>) -> usize {
+    let mut png = Vec::new();
+    let image = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb([255 * x as u8; 3]));
+    image::DynamicImage::ImageRgb8(image)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    use base64::Engine;
+    let data = base64::engine::general_purpose::STANDARD.encode(&png);
+    gltf.json["images"] = json!([{"uri": format!("data:image/png;base64,{data}")}]);
+    gltf.json["textures"] = json!([{"source": 0}]);
+    let mut info = json!({"index": 0});
+    if let Some(t) = transform {
+        gltf.uses("KHR_texture_transform", false);
+        info["extensions"] = json!({"KHR_texture_transform": t});
+    }
+    gltf.material(json!({"pbrMetallicRoughness": {"baseColorTexture": info,
+        "metallicFactor": 0.0, "roughnessFactor": 1.0}}))
+}
+
+/// The base colour at texture coordinates `(u, v)` of a unit quad that maps them
+/// linearly: glTF's (0,0) at its corner (−1, 0, −1), its (1,1) at (1, 0, 1).
+fn albedo_at(built: &Built, u: f32, v: f32) -> f32 {
+    let (x, z) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    let ray = Ray::new(Vec3::new(x, 1.0, z), -Vec3::Y);
+    let hit = built.accel.intersect(&ray).expect("the quad");
+    built.scene.albedo(&built.scene.surface(&hit)).x
+}
+
+fn textured_quad(transform: Option<serde_json::Value>) -> Built {
+    let mut gltf = GltfBuilder::default();
+    let material = black_white_texture(&mut gltf, transform);
+    let (p, uv, i) = floor_quad(1.0, 0.0);
+    let mesh = gltf.mesh(&p, Some(&uv), &i, Some(material));
+    gltf.node(json!({"mesh": mesh}), true);
+    load(&gltf)
+}
+
+/// `KHR_texture_transform` moves the texture as the extension states: `offset` shifts
+/// the coordinates, `rotation` turns them by `mat3(cos, sin, −sin, cos)`, `scale`
+/// stretches them; the image's left half is black, its right white.
+#[test]
+fn texture_transform_moves_the_texture_as_stated() {
+    let plain = textured_quad(None);
+    assert!(albedo_at(&plain, 0.25, 0.5) < 0.01);
+    assert!(albedo_at(&plain, 0.75, 0.5) > 0.99);
+    // u + 0.5: the left half reads the white texel.
+    let shifted = textured_quad(Some(json!({"offset": [0.5, 0.0]})));
+    assert!(albedo_at(&shifted, 0.25, 0.5) > 0.99);
+    assert!(albedo_at(&shifted, 0.75, 0.5) < 0.01);
+    // A quarter turn: u' = cos·u − sin·v = −v, which wraps to 1 − v.
+    let turned = textured_quad(Some(json!({"rotation": std::f32::consts::FRAC_PI_2})));
+    assert!(albedo_at(&turned, 0.5, 0.25) > 0.99, "u' = 0.75");
+    assert!(albedo_at(&turned, 0.5, 0.75) < 0.01, "u' = 0.25");
+    // u · 0.5: the middle of the quad, halfway between the texels, reads the left one.
+    assert!((albedo_at(&plain, 0.5, 0.5) - 0.5).abs() < 0.01);
+    let scaled = textured_quad(Some(json!({"scale": [0.5, 1.0]})));
+    assert!(albedo_at(&scaled, 0.5, 0.5) < 0.01);
+}
+
+/// `MASK` cuts at `alphaCutoff` (a constant alpha under it removes the surface),
+/// `BLEND` keeps the alpha as a stochastic cut-out, `OPAQUE` ignores it.
+#[test]
+fn alpha_modes_become_cut_outs() {
+    let mut gltf = GltfBuilder::default();
+    let material = |mode: &str, alpha: f32| {
+        json!({"alphaMode": mode, "alphaCutoff": 0.4,
+               "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, alpha]}})
+    };
+    for (mode, alpha) in [("MASK", 0.3), ("MASK", 0.5), ("BLEND", 0.25), ("OPAQUE", 0.1)] {
+        let m = gltf.material(material(mode, alpha));
+        let (p, uv, i) = floor_quad(1.0, 0.0);
+        let mesh = gltf.mesh(&p, Some(&uv), &i, Some(m));
+        gltf.node(json!({"mesh": mesh}), true);
+    }
+    let built = load(&gltf);
+    let opacity: Vec<f32> = built.scene.materials.iter().map(|m| m.opacity).collect();
+    assert_eq!(opacity, [0.0, 1.0, 0.25, 1.0, 1.0], "the default material last");
+}
+
+/// Strips and fans become the triangles the specification lists; points and lines are
+/// skipped with one note; one GLB and one .gltf of the same document load alike.
+#[test]
+fn strips_fans_and_lines() {
+    let mut gltf = GltfBuilder::default();
+    let m = gltf.material(rough_white());
+    // A strip of four vertices and a fan of four: two triangles each, facing +y.
+    let strip = gltf.floats(
+        &[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]
+            .map(|v: [f32; 3]| v.to_vec()),
+        "VEC3",
+    );
+    let fan = gltf.floats(
+        &[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 0.0, -1.0]]
+            .map(|v: [f32; 3]| v.to_vec()),
+        "VEC3",
+    );
+    gltf.json["meshes"] = json!([{"primitives": [
+        {"attributes": {"POSITION": strip}, "mode": 5, "material": m},
+        {"attributes": {"POSITION": fan}, "mode": 6, "material": m},
+        {"attributes": {"POSITION": fan}, "mode": 1, "material": m},
+    ]}]);
+    gltf.node(json!({"mesh": 0}), true);
+    let dir = tempfile::tempdir().unwrap();
+    let glb = write(dir.path(), "s.glb", &gltf.to_glb());
+    let loaded = load_gltf(&glb, &LoadOptions::default()).unwrap();
+    let mesh = &loaded.scene.mesh;
+    assert_eq!(mesh.triangles.len(), 4);
+    for t in 0..4 {
+        let n = mesh.area_normal(t as u32);
+        assert!(n.y > 0.0 && n.x == 0.0 && n.z == 0.0, "triangle {t}: {n}");
+    }
+    let area: f32 = (0..4).map(|t| mesh.area(t)).sum();
+    assert!((area - 4.0).abs() < 1e-6, "{area}");
+    let notes = &loaded.report.warnings;
+    assert_eq!(notes.len(), 1, "{notes:?}");
+    assert!(notes[0].contains("1 primitives of points or lines are skipped"), "{notes:?}");
+    let gltf_file = write(dir.path(), "s.gltf", gltf.to_gltf().as_bytes());
+    let same = load_gltf(&gltf_file, &LoadOptions::default()).unwrap();
+    assert_eq!(same.scene.mesh.positions, loaded.scene.mesh.positions);
+}
