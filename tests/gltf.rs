@@ -56,7 +56,11 @@ fn floor_radiance(built: &Built, x: f32, z: f32, n: u64) -> Vec<Vec3> {
     (0..n)
         .map(|i| {
             let mut rng = Rng::for_sample(3, 0, i);
-            tracer.radiance(Ray::new(Vec3::new(x, 3.0, z), -Vec3::Y), &mut rng, &mut count)
+            tracer.radiance(
+                Ray::new(Vec3::new(x, 3.0, z), -Vec3::Y),
+                &mut rng,
+                &mut count,
+            )
         })
         .collect()
 }
@@ -87,7 +91,8 @@ fn a_point_light_in_candela_gives_i_over_683_cos_theta_over_d_squared() {
     let mut gltf = GltfBuilder::default();
     with_floor(&mut gltf, rough_white());
     let candela = [1000.0f32, 500.0, 250.0];
-    let light = gltf.light(json!({"type": "point", "intensity": 1000.0, "color": [1.0, 0.5, 0.25]}));
+    let light =
+        gltf.light(json!({"type": "point", "intensity": 1000.0, "color": [1.0, 0.5, 0.25]}));
     let at = [0.2f32, 1.5, -0.1];
     gltf.node(
         json!({"translation": at, "extensions": {"KHR_lights_punctual": {"light": light}}}),
@@ -114,7 +119,12 @@ fn a_point_light_in_candela_gives_i_over_683_cos_theta_over_d_squared() {
 #[test]
 fn spot_and_directional_lights_follow_their_nodes() {
     // −Z turned to −Y: a quarter turn about +X, clockwise.
-    let down = [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2];
+    let down = [
+        -std::f32::consts::FRAC_1_SQRT_2,
+        0.0,
+        0.0,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ];
     let mut gltf = GltfBuilder::default();
     with_floor(&mut gltf, rough_white());
     let spot = gltf.light(json!({"type": "spot", "intensity": 683.0,
@@ -130,7 +140,12 @@ fn spot_and_directional_lights_follow_their_nodes() {
     let cos = 2.0 / (4.0 + f64::from(inside * inside)).sqrt();
     let d2 = 4.0 + f64::from(inside * inside);
     let expected = DVec3::ONE * cos / d2 * white_brdf_times_pi(cos) / PI;
-    assert_close("inside", floor_radiance(&built, inside, 0.0, 1)[0], expected, 2e-3);
+    assert_close(
+        "inside",
+        floor_radiance(&built, inside, 0.0, 1)[0],
+        expected,
+        2e-3,
+    );
     let outside = 2.0 * 0.6f32.tan();
     assert_eq!(floor_radiance(&built, 0.0, outside, 1)[0], Vec3::ZERO);
 
@@ -138,8 +153,7 @@ fn spot_and_directional_lights_follow_their_nodes() {
     with_floor(&mut gltf, rough_white());
     let sun = gltf.light(json!({"type": "directional", "intensity": 6830.0}));
     // Down, then tilted 60° about +Z.
-    let tilt = glam::Quat::from_rotation_z(60f32.to_radians())
-        * glam::Quat::from_array(down);
+    let tilt = glam::Quat::from_rotation_z(60f32.to_radians()) * glam::Quat::from_array(down);
     gltf.node(
         json!({"rotation": tilt.to_array(), "translation": [5.0, 9.0, 1.0],
                "extensions": {"KHR_lights_punctual": {"light": sun}}}),
@@ -148,7 +162,12 @@ fn spot_and_directional_lights_follow_their_nodes() {
     let built = load(&gltf);
     let cos = 0.5;
     let expected = DVec3::ONE * 10.0 * cos * white_brdf_times_pi(cos) / PI;
-    assert_close("sun", floor_radiance(&built, 0.3, 0.7, 1)[0], expected, 2e-3);
+    assert_close(
+        "sun",
+        floor_radiance(&built, 0.3, 0.7, 1)[0],
+        expected,
+        2e-3,
+    );
 }
 
 /// Two quads in front of the camera under a white sky.
@@ -156,14 +175,22 @@ fn two_quads(shared: bool) -> GltfBuilder {
     let mut gltf = GltfBuilder::default();
     let red = gltf.material(json!({"pbrMetallicRoughness": {
         "baseColorFactor": [0.8, 0.2, 0.1, 1.0], "metallicFactor": 0.0, "roughnessFactor": 0.5}}));
-    let quad: [[f32; 3]; 4] = [[-0.5, -0.5, 0.0], [0.5, -0.5, 0.0], [0.5, 0.5, 0.0], [-0.5, 0.5, 0.0]];
+    let quad: [[f32; 3]; 4] = [
+        [-0.5, -0.5, 0.0],
+        [0.5, -0.5, 0.0],
+        [0.5, 0.5, 0.0],
+        [-0.5, 0.5, 0.0],
+    ];
     let indices = [0, 1, 2, 0, 2, 3];
     let first = gltf.mesh(&quad, None, &indices, Some(red));
     let second = match shared {
         true => first,
         false => gltf.mesh(&quad, None, &indices, Some(red)),
     };
-    gltf.node(json!({"mesh": first, "translation": [-0.6, 0.0, 0.0]}), true);
+    gltf.node(
+        json!({"mesh": first, "translation": [-0.6, 0.0, 0.0]}),
+        true,
+    );
     // The second turned about +Y and mirrored: the instance's normals and winding turn.
     gltf.node(
         json!({"mesh": second, "translation": [0.6, 0.1, -0.3],
@@ -178,7 +205,11 @@ fn two_quads(shared: bool) -> GltfBuilder {
 #[test]
 fn a_mesh_two_nodes_share_is_stored_once_and_renders_as_two_copies() {
     let dir = tempfile::tempdir().unwrap();
-    let shared = write(dir.path(), "shared.gltf", two_quads(true).to_gltf().as_bytes());
+    let shared = write(
+        dir.path(),
+        "shared.gltf",
+        two_quads(true).to_gltf().as_bytes(),
+    );
     let copies = write(dir.path(), "copies.glb", &two_quads(false).to_glb());
     let loaded = load_gltf(&shared, &LoadOptions::default()).unwrap();
     assert_eq!(loaded.scene.mesh.triangles.len(), 2, "the mesh once");
@@ -194,18 +225,39 @@ fn a_mesh_two_nodes_share_is_stored_once_and_renders_as_two_copies() {
             let out = format!("{file}-{accel}.exr");
             let run = ember_in(
                 &[
-                    "render", file, "--accel", accel, "--spp", "16", "--width", "48",
-                    "--height", "32", "--eye", "0,0,3", "--look-at", "0,0,0", "-o", &out,
+                    "render",
+                    file,
+                    "--accel",
+                    accel,
+                    "--spp",
+                    "16",
+                    "--width",
+                    "48",
+                    "--height",
+                    "32",
+                    "--eye",
+                    "0,0,3",
+                    "--look-at",
+                    "0,0,0",
+                    "-o",
+                    &out,
                 ],
                 dir.path(),
             );
-            assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+            assert!(
+                run.status.success(),
+                "{}",
+                String::from_utf8_lossy(&run.stderr)
+            );
             images.push(Image::load(&dir.path().join(&out)).unwrap());
         }
         let error = compare(&images[0], &images[1]).unwrap();
         assert!(error.rel_mse < 1e-4, "{accel}: relMSE {}", error.rel_mse);
         let (a, b) = (images[0].mean(), images[1].mean());
-        assert!((a - b).abs().max_element() < 1e-3 * a.max_element(), "{accel}: {a} {b}");
+        assert!(
+            (a - b).abs().max_element() < 1e-3 * a.max_element(),
+            "{accel}: {a} {b}"
+        );
     }
 }
 
@@ -219,19 +271,31 @@ fn the_cornell_box_as_gltf_renders_close_to_the_obj() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let dir = tempfile::tempdir().unwrap();
     let mut means = Vec::new();
-    for scene in ["tests/data/gltf/cornell-box.gltf", "meshes/CornellBox-Original.obj"] {
+    for scene in [
+        "tests/data/gltf/cornell-box.gltf",
+        "meshes/CornellBox-Original.obj",
+    ] {
         let out = dir.path().join("out.exr");
-        let mut args = vec!["render", scene, "--spp", "64", "--width", "48", "--height", "48"];
+        let mut args = vec![
+            "render", scene, "--spp", "64", "--width", "48", "--height", "48",
+        ];
         args.extend(common::CORNELL_CAMERA);
         args.extend(["-o", out.to_str().unwrap()]);
         let run = ember_in(&args, root);
-        assert!(run.status.success(), "{}", String::from_utf8_lossy(&run.stderr));
+        assert!(
+            run.status.success(),
+            "{}",
+            String::from_utf8_lossy(&run.stderr)
+        );
         means.push(Image::load(&out).unwrap().mean());
     }
     let (gltf, obj) = (means[0], means[1]);
     for c in 0..3 {
         let ratio = gltf[c] / obj[c];
-        assert!((ratio - 1.0).abs() < 0.05, "channel {c}: glTF {gltf}, OBJ {obj}");
+        assert!(
+            (ratio - 1.0).abs() < 0.05,
+            "channel {c}: glTF {gltf}, OBJ {obj}"
+        );
     }
 }
 
@@ -247,37 +311,71 @@ fn the_files_first_camera_is_the_default_and_camera_picks_another() {
         {"name": "top", "type": "perspective", "perspective": {"yfov": 1.0, "znear": 0.1, "aspectRatio": 1.5}},
     ]);
     gltf.node(json!({"camera": 0, "translation": [0.0, 1.0, 5.0]}), true);
-    let down = [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2];
-    gltf.node(json!({"camera": 1, "translation": [0.0, 8.0, 0.0], "rotation": down}), true);
+    let down = [
+        -std::f32::consts::FRAC_1_SQRT_2,
+        0.0,
+        0.0,
+        std::f32::consts::FRAC_1_SQRT_2,
+    ];
+    gltf.node(
+        json!({"camera": 1, "translation": [0.0, 8.0, 0.0], "rotation": down}),
+        true,
+    );
     let dir = tempfile::tempdir().unwrap();
     write(dir.path(), "cams.gltf", gltf.to_gltf().as_bytes());
     let info = ember_in(&["info", "cams.gltf"], dir.path());
     let out = String::from_utf8_lossy(&info.stdout);
-    assert!(info.status.success(), "{}", String::from_utf8_lossy(&info.stderr));
+    assert!(
+        info.status.success(),
+        "{}",
+        String::from_utf8_lossy(&info.stderr)
+    );
     let fov = 0.5f32.to_degrees();
-    let line = format!("camera (the file's camera \"front\"): --eye 0,1,5 --look-at 0,1,4 --fov {fov}");
+    let line =
+        format!("camera (the file's camera \"front\"): --eye 0,1,5 --look-at 0,1,4 --fov {fov}");
     assert!(out.contains(&line), "{out}");
     assert!(out.contains("cameras: 2"), "{out}");
     let render = |extra: &[&str]| {
-        let mut args = vec!["render", "cams.gltf", "--spp", "1", "--width", "8", "--height", "8"];
+        let mut args = vec![
+            "render",
+            "cams.gltf",
+            "--spp",
+            "1",
+            "--width",
+            "8",
+            "--height",
+            "8",
+        ];
         args.extend(extra);
         let run = ember_in(&args, dir.path());
-        (run.status.success(), String::from_utf8_lossy(&run.stderr).into_owned())
+        (
+            run.status.success(),
+            String::from_utf8_lossy(&run.stderr).into_owned(),
+        )
     };
     for pick in ["top", "1"] {
         let (ok, err) = render(&["--camera", pick]);
         assert!(ok, "{err}");
         let fov = 1.0f32.to_degrees();
-        assert!(err.contains(&format!("camera (the file's camera \"top\"): --eye 0,8,0")), "{err}");
+        assert!(
+            err.contains(&format!("camera (the file's camera \"top\"): --eye 0,8,0")),
+            "{err}"
+        );
         assert!(err.contains(&format!("--fov {fov}")), "{err}");
     }
     let (ok, err) = render(&["--camera", "front", "--fov", "60", "--eye", "0,2,6"]);
     assert!(ok, "{err}");
-    assert!(err.contains("--eye 0,2,6 --look-at 0,1,4 --fov 60"), "{err}");
+    assert!(
+        err.contains("--eye 0,2,6 --look-at 0,1,4 --fov 60"),
+        "{err}"
+    );
     let (ok, err) = render(&["--camera", "side"]);
     assert!(!ok);
     assert_eq!(err.lines().count(), 1, "{err}");
-    assert!(err.starts_with("error: --camera \"side\"") && err.contains("\"front\", \"top\""), "{err}");
+    assert!(
+        err.starts_with("error: --camera \"side\"") && err.contains("\"front\", \"top\""),
+        "{err}"
+    );
 }
 
 /// A 2×1 texture, black on the left and white on the right, as a PNG in a data: URI.
@@ -349,7 +447,12 @@ fn alpha_modes_become_cut_outs() {
         json!({"alphaMode": mode, "alphaCutoff": 0.4,
                "pbrMetallicRoughness": {"baseColorFactor": [1.0, 1.0, 1.0, alpha]}})
     };
-    for (mode, alpha) in [("MASK", 0.3), ("MASK", 0.5), ("BLEND", 0.25), ("OPAQUE", 0.1)] {
+    for (mode, alpha) in [
+        ("MASK", 0.3),
+        ("MASK", 0.5),
+        ("BLEND", 0.25),
+        ("OPAQUE", 0.1),
+    ] {
         let m = gltf.material(material(mode, alpha));
         let (p, uv, i) = floor_quad(1.0, 0.0);
         let mesh = gltf.mesh(&p, Some(&uv), &i, Some(m));
@@ -357,7 +460,11 @@ fn alpha_modes_become_cut_outs() {
     }
     let built = load(&gltf);
     let opacity: Vec<f32> = built.scene.materials.iter().map(|m| m.opacity).collect();
-    assert_eq!(opacity, [0.0, 1.0, 0.25, 1.0, 1.0], "the default material last");
+    assert_eq!(
+        opacity,
+        [0.0, 1.0, 0.25, 1.0, 1.0],
+        "the default material last"
+    );
 }
 
 /// Strips and fans become the triangles the specification lists; points and lines are
@@ -368,13 +475,23 @@ fn strips_fans_and_lines() {
     let m = gltf.material(rough_white());
     // A strip of four vertices and a fan of four: two triangles each, facing +y.
     let strip = gltf.floats(
-        &[[-1.0, 0.0, -1.0], [-1.0, 0.0, 1.0], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]
-            .map(|v: [f32; 3]| v.to_vec()),
+        &[
+            [-1.0, 0.0, -1.0],
+            [-1.0, 0.0, 1.0],
+            [0.0, 0.0, -1.0],
+            [0.0, 0.0, 1.0],
+        ]
+        .map(|v: [f32; 3]| v.to_vec()),
         "VEC3",
     );
     let fan = gltf.floats(
-        &[[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [1.0, 0.0, -1.0], [0.0, 0.0, -1.0]]
-            .map(|v: [f32; 3]| v.to_vec()),
+        &[
+            [0.0, 0.0, 1.0],
+            [1.0, 0.0, 1.0],
+            [1.0, 0.0, -1.0],
+            [0.0, 0.0, -1.0],
+        ]
+        .map(|v: [f32; 3]| v.to_vec()),
         "VEC3",
     );
     gltf.json["meshes"] = json!([{"primitives": [
@@ -396,8 +513,242 @@ fn strips_fans_and_lines() {
     assert!((area - 4.0).abs() < 1e-6, "{area}");
     let notes = &loaded.report.warnings;
     assert_eq!(notes.len(), 1, "{notes:?}");
-    assert!(notes[0].contains("1 primitives of points or lines are skipped"), "{notes:?}");
+    assert!(
+        notes[0].contains("1 primitives of points or lines are skipped"),
+        "{notes:?}"
+    );
     let gltf_file = write(dir.path(), "s.gltf", gltf.to_gltf().as_bytes());
     let same = load_gltf(&gltf_file, &LoadOptions::default()).unwrap();
     assert_eq!(same.scene.mesh.positions, loaded.scene.mesh.positions);
+}
+
+/// A small valid scene: one quad under a point light.
+fn valid() -> GltfBuilder {
+    let mut gltf = GltfBuilder::default();
+    with_floor(&mut gltf, rough_white());
+    let light = gltf.light(json!({"type": "point", "intensity": 100.0}));
+    gltf.node(
+        json!({"translation": [0.0, 1.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": light}}}),
+        true,
+    );
+    gltf
+}
+
+/// Runs `ember render` and `ember info` on `bytes` as `name`: each must fail with one
+/// `error:` line naming the file and containing `says`.
+fn refused(name: &str, bytes: &[u8], says: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), name, bytes);
+    for command in [
+        &[
+            "render", name, "--spp", "1", "--width", "4", "--height", "4",
+        ][..],
+        &["info", name],
+    ] {
+        let out = ember_in(command, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: {err}");
+        assert_eq!(err.lines().count(), 1, "{name}: {err}");
+        assert!(err.starts_with(&format!("error: {name}")), "{name}: {err}");
+        assert!(err.contains(says), "{name}: expected {says:?} in {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
+}
+
+/// Hostile files: each is one error line naming the file, and no panic.
+#[test]
+fn hostile_files_are_one_error_line() {
+    let glb = valid().to_glb();
+    refused(
+        "truncated.glb",
+        &glb[..glb.len() / 2],
+        "the GLB header says",
+    );
+    let mut lying = glb.clone();
+    lying[12..16].copy_from_slice(&u32::MAX.to_le_bytes());
+    refused("lying-chunk.glb", &lying, "chunk says 4294967295 bytes");
+    refused("header.glb", &glb[..10], "truncated");
+    let mut version = glb.clone();
+    version[4] = 1;
+    refused("version.glb", &version, "GLB version 1");
+
+    let mut far = valid();
+    far.json["accessors"][0]["byteOffset"] = json!(4096);
+    refused("offset.gltf", far.to_gltf().as_bytes(), "reach byte");
+    let mut huge = valid();
+    huge.json["accessors"][0]["count"] = json!(1_000_000_000u64);
+    refused(
+        "count.gltf",
+        huge.to_gltf().as_bytes(),
+        "values, its POSITION",
+    );
+    let mut huge_indices = valid();
+    huge_indices.json["accessors"][2]["count"] = json!(1_000_000_000u64);
+    refused(
+        "indices.gltf",
+        huge_indices.to_gltf().as_bytes(),
+        "1000000000 elements reach byte",
+    );
+    let mut out_of_range = valid();
+    let bad = out_of_range.indices(&[0, 1, 99]);
+    out_of_range.json["meshes"][0]["primitives"][0]["indices"] = json!(bad);
+    refused(
+        "index.gltf",
+        out_of_range.to_gltf().as_bytes(),
+        "index 99 is out of range",
+    );
+    let mut missing_view = valid();
+    missing_view.json["accessors"][0]["bufferView"] = json!(77);
+    refused(
+        "view.gltf",
+        missing_view.to_gltf().as_bytes(),
+        "invalid glTF",
+    );
+
+    let text = valid().to_gltf();
+    let broken = text.replacen(";base64,", ";base64,@@", 1);
+    refused("base64.gltf", broken.as_bytes(), "base64 is broken");
+    let plain = text.replacen(";base64,", ",", 1);
+    refused("plain.gltf", plain.as_bytes(), "not base64");
+    let mut external = valid().json;
+    external["buffers"] = json!([{"byteLength": 8, "uri": "missing.bin"}]);
+    refused(
+        "buffer.gltf",
+        external.to_string().as_bytes(),
+        "missing.bin",
+    );
+    let mut remote = valid().json;
+    remote["buffers"] = json!([{"byteLength": 8, "uri": "https://example.com/a.bin"}]);
+    refused(
+        "remote.gltf",
+        remote.to_string().as_bytes(),
+        "names a resource elsewhere",
+    );
+
+    let mut infinite = valid();
+    infinite.json["nodes"][0]["translation"] = json!([1e39, 0.0, 0.0]);
+    refused(
+        "infinite.gltf",
+        infinite.to_gltf().as_bytes(),
+        "translation that is not finite",
+    );
+    let mut overflow = valid();
+    overflow.json["nodes"][0]["scale"] = json!([3e38, 3e38, 3e38]);
+    overflow.json["nodes"][1]["children"] = json!([0]);
+    overflow.json["nodes"][1]["scale"] = json!([3e38, 3e38, 3e38]);
+    overflow.json["scenes"][0]["nodes"] = json!([1]);
+    refused("overflow.gltf", overflow.to_gltf().as_bytes(), "not finite");
+    let mut cycle = valid();
+    cycle.json["nodes"][0]["children"] = json!([1]);
+    cycle.json["nodes"][1]["children"] = json!([0]);
+    refused("cycle.gltf", cycle.to_gltf().as_bytes(), "its own ancestor");
+    let mut own_child = valid();
+    own_child.json["nodes"][0]["children"] = json!([0]);
+    refused("self.gltf", own_child.to_gltf().as_bytes(), "its own child");
+    let mut two_parents = valid();
+    two_parents.node(json!({"children": [1]}), true);
+    two_parents.json["nodes"][0]["children"] = json!([1]);
+    refused(
+        "parents.gltf",
+        two_parents.to_gltf().as_bytes(),
+        "a child of both",
+    );
+
+    let mut required = valid();
+    required.uses("KHR_draco_mesh_compression", true);
+    refused(
+        "draco.gltf",
+        required.to_gltf().as_bytes(),
+        "requires the extension KHR_draco_mesh_compression",
+    );
+    let mut spot = valid();
+    spot.json["extensions"]["KHR_lights_punctual"]["lights"][0] = json!({"type": "spot", "intensity": 1.0, "spot": {"innerConeAngle": 1.0, "outerConeAngle": 0.5}});
+    refused("spot.gltf", spot.to_gltf().as_bytes(), "cone angles");
+    refused("json.gltf", b"{\"asset\": ", "invalid JSON");
+    refused(
+        "empty.gltf",
+        br#"{"asset": {"version": "2.0"}}"#,
+        "no triangles",
+    );
+}
+
+/// An image file that is absent is a warning and the material keeps its factor, as an
+/// OBJ's missing texture is; with `--strict` it is an error. An extension the file
+/// uses without requiring it is one warning.
+#[test]
+fn a_missing_image_warns_and_strict_refuses() {
+    let mut gltf = valid();
+    gltf.json["images"] = json!([{"uri": "textures/wood%20grain.png"}]);
+    gltf.json["textures"] = json!([{"source": 0}]);
+    gltf.json["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({"index": 0});
+    gltf.uses("KHR_materials_sheen", false);
+    let dir = tempfile::tempdir().unwrap();
+    write(dir.path(), "tex.gltf", gltf.to_gltf().as_bytes());
+    let out = ember_in(
+        &[
+            "render", "tex.gltf", "--spp", "1", "--width", "4", "--height", "4",
+        ],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{err}");
+    let warnings: Vec<&str> = err.lines().filter(|l| l.starts_with("warning:")).collect();
+    assert_eq!(warnings.len(), 2, "{err}");
+    assert!(
+        warnings.iter().any(|w| w.contains("wood grain.png")
+            && w.contains("file not found")
+            && w.contains("baseColorFactor 0.8 0.8 0.8")),
+        "{err}"
+    );
+    assert!(
+        warnings.iter().any(|w| w.contains("KHR_materials_sheen")),
+        "{err}"
+    );
+    let out = ember_in(
+        &["render", "tex.gltf", "--strict", "--spp", "1"],
+        dir.path(),
+    );
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.lines().count(), 1, "{err}");
+    assert!(
+        err.starts_with("error: texture") && err.contains("wood grain.png"),
+        "{err}"
+    );
+    // Present, it is read from beside the file.
+    std::fs::create_dir(dir.path().join("textures")).unwrap();
+    image::RgbImage::from_pixel(1, 1, image::Rgb([255, 0, 0]))
+        .save(dir.path().join("textures/wood grain.png"))
+        .unwrap();
+    let loaded = load_gltf(&dir.path().join("tex.gltf"), &LoadOptions { strict: true }).unwrap();
+    assert_eq!(loaded.scene.textures.len(), 1);
+}
+
+/// A scene file places a glTF with `[[mesh]]` (and `[[obj]]` still), instances of it
+/// included, its lights with it.
+#[test]
+fn scene_files_place_gltf_files() {
+    let dir = tempfile::tempdir().unwrap();
+    write(
+        dir.path(),
+        "quads.gltf",
+        two_quads(true).to_gltf().as_bytes(),
+    );
+    write(dir.path(), "lamp.glb", &valid().to_glb());
+    let toml = "[[mesh]]\nfile = \"quads.gltf\"\n\n[[obj]]\nfile = \"lamp.glb\"\ntranslate = [0, -2, 0]\n\n\
+                [[instance]]\nmesh = \"quads\"\ntranslate = [0, 0, -2]\n";
+    write(dir.path(), "scene.toml", toml.as_bytes());
+    let out = ember_in(&["info", "scene.toml"], dir.path());
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    // Two placements of the two-quad glTF (two instances each) and the lamp's floor.
+    assert!(
+        text.contains("; 5 placements put 10 triangles in the world"),
+        "{text}"
+    );
+    assert!(text.contains("1 placed light"), "{text}");
 }

@@ -431,13 +431,15 @@ impl SceneFile {
             loaded.push((model.scene, model.report));
         }
         let (mut scene, mut report) = self.place_objs(loaded)?;
+        // The lights the models place (a glTF's) and the file's own.
+        let model_lights = scene.lights.len();
         scene
             .lights
             .extend(self.lights.iter().filter_map(|l| match l.light {
                 PlacedLight::Light(light) => Some(light),
                 PlacedLight::Area(_) => None,
             }));
-        report.lights = self.lights.len();
+        report.lights = model_lights + self.lights.len();
         Ok((scene, report))
     }
 

@@ -52,14 +52,23 @@ impl GltfBuilder {
 
     /// An accessor of f32 vectors (`VEC2`, `VEC3`) with min and max for positions.
     pub fn floats(&mut self, values: &[Vec<f32>], kind: &str) -> usize {
-        let bytes: Vec<u8> = values.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        let bytes: Vec<u8> = values
+            .iter()
+            .flatten()
+            .flat_map(|x| x.to_le_bytes())
+            .collect();
         let view = self.view(&bytes);
         let n = values[0].len();
         let min: Vec<f32> = (0..n)
             .map(|k| values.iter().map(|v| v[k]).fold(f32::INFINITY, f32::min))
             .collect();
         let max: Vec<f32> = (0..n)
-            .map(|k| values.iter().map(|v| v[k]).fold(f32::NEG_INFINITY, f32::max))
+            .map(|k| {
+                values
+                    .iter()
+                    .map(|v| v[k])
+                    .fold(f32::NEG_INFINITY, f32::max)
+            })
             .collect();
         self.push(
             "accessors",
@@ -91,7 +100,10 @@ impl GltfBuilder {
         indices: &[u32],
         material: Option<usize>,
     ) -> usize {
-        let p = self.floats(&positions.iter().map(|p| p.to_vec()).collect::<Vec<_>>(), "VEC3");
+        let p = self.floats(
+            &positions.iter().map(|p| p.to_vec()).collect::<Vec<_>>(),
+            "VEC3",
+        );
         let mut attributes = json!({"POSITION": p});
         if let Some(uvs) = uvs {
             let t = self.floats(&uvs.iter().map(|t| t.to_vec()).collect::<Vec<_>>(), "VEC2");
@@ -120,7 +132,12 @@ impl GltfBuilder {
     /// Declares an extension used (and required, with `required`).
     pub fn uses(&mut self, name: &str, required: bool) {
         let mut add = |key: &str| {
-            let list = self.json.as_object_mut().unwrap().entry(key).or_insert(json!([]));
+            let list = self
+                .json
+                .as_object_mut()
+                .unwrap()
+                .entry(key)
+                .or_insert(json!([]));
             list.as_array_mut().unwrap().push(json!(name));
         };
         add("extensionsUsed");

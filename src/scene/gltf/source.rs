@@ -24,6 +24,10 @@ pub const SUPPORTED_EXTENSIONS: [&str; 4] = [
     "KHR_mesh_quantization",
 ];
 
+/// The supported extensions that the `gltf` crate has no feature for: ember's accessor
+/// reader takes the integer vertex attributes `KHR_mesh_quantization` allows.
+const EXTENSIONS_READ_HERE: [&str; 1] = ["KHR_mesh_quantization"];
+
 /// A glTF document with its buffers' bytes and the folder its URIs are relative to.
 pub struct Source {
     pub document: Document,
@@ -54,9 +58,12 @@ pub fn read(path: &Path) -> Result<Source, String> {
         "parsing its JSON",
         (json.len() as u64).saturating_mul(MEMORY_PER_JSON_BYTE),
     )?;
-    let root = gltf::json::Root::from_slice(json).map_err(|e| format!("invalid JSON: {e}"))?;
+    let mut root = gltf::json::Root::from_slice(json).map_err(|e| format!("invalid JSON: {e}"))?;
+    let unsupported = check_extensions(&root)?;
+    // Read here, not by the `gltf` crate, whose validation would refuse them.
+    root.extensions_required
+        .retain(|name| !EXTENSIONS_READ_HERE.contains(&name.as_str()));
     let document = Document::from_json(root).map_err(validation_message)?;
-    let unsupported = check_extensions(&document)?;
     let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
     let bin = bin.map(<[u8]>::to_vec);
     drop(bytes);
@@ -148,18 +155,19 @@ fn validation_message(e: gltf::Error) -> String {
 
 /// Refuses a file that requires an extension ember does not read; returns those it
 /// uses without requiring them.
-fn check_extensions(document: &Document) -> Result<Vec<String>, String> {
+fn check_extensions(root: &gltf::json::Root) -> Result<Vec<String>, String> {
     let supported = |name: &str| SUPPORTED_EXTENSIONS.contains(&name);
-    if let Some(name) = document.extensions_required().find(|n| !supported(n)) {
+    if let Some(name) = root.extensions_required.iter().find(|n| !supported(n)) {
         return Err(format!(
             "it requires the extension {name}, which ember does not read (ember reads {})",
             SUPPORTED_EXTENSIONS.join(", ")
         ));
     }
-    Ok(document
-        .extensions_used()
+    Ok(root
+        .extensions_used
+        .iter()
         .filter(|n| !supported(n))
-        .map(str::to_owned)
+        .cloned()
         .collect())
 }
 
