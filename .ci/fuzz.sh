@@ -7,6 +7,8 @@
 #   fuzz_film_files    shard and checkpoint files (crafted headers, damaged pixels, valid checksums)
 #   fuzz_scene_file    scene files (every table's keys and values of every type, transforms at the
 #                      edge of f32, instanced scenes on both backends; some through `ember render`)
+#   fuzz_gltf          glTF and GLB files (JSON values at the edge of f32 and u32, wrong types, node
+#                      cycles, broken URIs; GLB bytes and lengths overwritten, files cut short)
 #   fuzz_exr           EXR files for `ember denoise` (half/float, every lossless compression, scan
 #                      lines and tiles, huge claimed sizes; damaged headers and bytes)
 # Each target's test is the function named like it with its fuzz_ prefix. The address

@@ -222,19 +222,21 @@ fn parts_and_instances(
             transform: Affine3A::IDENTITY,
         });
     }
-    let first_shared = parts.len();
+    // A shared mesh left without triangles (lines, degenerate ones) is no part.
+    let mut part_of = Vec::with_capacity(shared.len());
     let mut start = baked_end;
     for k in 0..shared.len() {
         let end = ends[baked + k];
-        parts.push(part(start..end));
+        part_of.push((end > start).then_some(parts.len() as u32));
+        if end > start {
+            parts.push(part(start..end));
+        }
         start = end;
     }
     for &(m, transform) in &placed.meshes {
-        if let Some(k) = shared.iter().position(|&s| s == m) {
-            instances.push(Instance {
-                mesh: (first_shared + k) as u32,
-                transform,
-            });
+        let part = shared.iter().position(|&s| s == m).and_then(|k| part_of[k]);
+        if let Some(mesh) = part {
+            instances.push(Instance { mesh, transform });
         }
     }
     (parts, instances)

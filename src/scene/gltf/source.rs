@@ -60,6 +60,8 @@ pub fn read(path: &Path) -> Result<Source, String> {
     )?;
     let mut root = gltf::json::Root::from_slice(json).map_err(|e| format!("invalid JSON: {e}"))?;
     let unsupported = check_extensions(&root)?;
+    check_attribute_accessors(&root)?;
+    check_image_sources(&root)?;
     // Read here, not by the `gltf` crate, whose validation would refuse them.
     root.extensions_required
         .retain(|name| !EXTENSIONS_READ_HERE.contains(&name.as_str()));
@@ -169,6 +171,41 @@ fn check_extensions(root: &gltf::json::Root) -> Result<Vec<String>, String> {
         .filter(|n| !supported(n))
         .cloned()
         .collect())
+}
+
+/// Refuses a primitive attribute naming an accessor that does not exist, before the
+/// `gltf` crate's validation, which indexes the accessors by it unchecked.
+fn check_attribute_accessors(root: &gltf::json::Root) -> Result<(), String> {
+    let count = root.accessors.len();
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive.attributes.values().find(|a| a.value() >= count) {
+                return Err(format!(
+                    "primitive {p} of mesh {m} names accessor {}, but there are {count}",
+                    index.value()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Refuses an image that names neither a URI nor a buffer view with its MIME type, which
+/// the `gltf` crate takes for granted.
+fn check_image_sources(root: &gltf::json::Root) -> Result<(), String> {
+    for (i, image) in root.images.iter().enumerate() {
+        let ok = match (&image.uri, &image.buffer_view) {
+            (Some(_), None) => true,
+            (None, Some(_)) => image.mime_type.is_some(),
+            _ => false,
+        };
+        if !ok {
+            return Err(format!(
+                "image {i} needs a uri, or a bufferView with its mimeType (and not both)"
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// The bytes of every buffer, in order.
