@@ -75,7 +75,7 @@ fn base() -> &'static GltfBuilder {
         let spot = gltf.light(json!({"type": "spot", "intensity": 80.0, "color": [1.0, 0.5, 0.5],
             "spot": {"innerConeAngle": 0.2, "outerConeAngle": 0.6}}));
         gltf.node(json!({"translation": [0.0, 2.0, 0.0], "extensions": {"KHR_lights_punctual": {"light": point}}}), true);
-        gltf.node(json!({"rotation": [-0.7071, 0.0, 0.0, 0.7071], "translation": [1.0, 3.0, 0.0],
+        gltf.node(json!({"rotation": [-std::f32::consts::FRAC_1_SQRT_2, 0.0, 0.0, std::f32::consts::FRAC_1_SQRT_2], "translation": [1.0, 3.0, 0.0],
             "extensions": {"KHR_lights_punctual": {"light": spot}}}), true);
         gltf.json["cameras"] = json!([{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}]);
         gltf.node(json!({"camera": 0, "translation": [0.0, 1.0, 4.0]}), true);

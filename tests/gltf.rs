@@ -358,7 +358,7 @@ fn the_files_first_camera_is_the_default_and_camera_picks_another() {
         assert!(ok, "{err}");
         let fov = 1.0f32.to_degrees();
         assert!(
-            err.contains(&format!("camera (the file's camera \"top\"): --eye 0,8,0")),
+            err.contains("camera (the file's camera \"top\"): --eye 0,8,0"),
             "{err}"
         );
         assert!(err.contains(&format!("--fov {fov}")), "{err}");

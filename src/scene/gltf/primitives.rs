@@ -196,7 +196,7 @@ fn append_primitive(
         }
         mesh.positions.push(p);
     }
-    let normal_matrix = Mat3A::from(transform.matrix3).inverse().transpose();
+    let normal_matrix: Mat3A = transform.matrix3.inverse().transpose();
     let normal_values = normals
         .map(|a| read_vectors::<3>(&a, buffers, false))
         .transpose()?
