@@ -15,11 +15,7 @@ mod common;
 use std::sync::OnceLock;
 
 use common::gltf::{floor_quad, GltfBuilder};
-use ember::accel::{instanced_bvh, instanced_embree, Accel};
-use ember::embree::{BuildQuality, Device};
-use ember::integrator::IntegratorKind;
-use ember::render::{self, RenderSettings};
-use ember::scene::{load_gltf, CameraSettings, LoadOptions, Scene};
+use ember::scene::{load_gltf, LoadOptions};
 use proptest::prelude::*;
 use serde_json::{json, Value};
 
@@ -257,47 +253,6 @@ fn file_of(input: &Input) -> (Vec<u8>, &'static str) {
     (bytes, "fuzz.glb")
 }
 
-fn device() -> &'static Device {
-    static DEVICE: OnceLock<Device> = OnceLock::new();
-    DEVICE.get_or_init(|| Device::new("threads=1").expect("Embree device"))
-}
-
-fn render_on<A: Accel>(scene: &Scene, accel: &A) -> Result<(), TestCaseError> {
-    let (lo, hi) = scene.bounds();
-    let camera = CameraSettings::framing(lo, hi, 40.0);
-    if camera.validate().is_err() {
-        return Ok(());
-    }
-    let settings = RenderSettings {
-        width: 4,
-        height: 4,
-        spp: 1,
-        max_depth: 3,
-        seed: 1,
-        integrator: IntegratorKind::Mis,
-        light_sampler: Default::default(),
-        adaptive: None,
-        guiding: None,
-        engine: Default::default(),
-    };
-    let (image, _) = render::render(scene, accel, &camera.camera(4, 4), &settings, &|_| {});
-    prop_assert!(image.pixels.iter().all(|p| p.is_finite()));
-    Ok(())
-}
-
-/// An instanced scene on both backends; a plain one on Embree.
-fn render_both(scene: &Scene) -> Result<(), TestCaseError> {
-    let Some(instancing) = &scene.instancing else {
-        return common::fuzz::render_tiny(scene).map(drop);
-    };
-    let embree = instanced_embree(device(), &scene.mesh, instancing, BuildQuality::Low, None)
-        .map_err(|e| TestCaseError::fail(format!("Embree build failed: {e}")))?;
-    render_on(scene, &embree)?;
-    let bvh = instanced_bvh(&scene.mesh, instancing)
-        .map_err(|e| TestCaseError::fail(format!("BVH build failed: {e}")))?;
-    render_on(scene, &bvh)
-}
-
 fn check(input: &Input) -> Result<bool, TestCaseError> {
     let dir = tempfile::tempdir().unwrap();
     let (bytes, name) = file_of(input);
@@ -305,7 +260,7 @@ fn check(input: &Input) -> Result<bool, TestCaseError> {
     std::fs::write(&path, &bytes).unwrap();
     match load_gltf(&path, &LoadOptions::default()) {
         Ok(loaded) => {
-            render_both(&loaded.scene)?;
+            common::fuzz::render_both(&loaded.scene)?;
             Ok(true)
         }
         Err(e) => {
@@ -351,6 +306,6 @@ fn the_unchanged_file_loads_and_renders() {
             loaded.scene.opacity().is_some(),
             "the MASK material cuts out"
         );
-        render_both(&loaded.scene).unwrap();
+        common::fuzz::render_both(&loaded.scene).unwrap();
     }
 }

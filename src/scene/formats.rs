@@ -42,12 +42,7 @@ pub struct LoadedModel {
 /// OBJ (the command line refuses those first).
 pub fn load_model(path: &Path, options: &LoadOptions) -> Result<LoadedModel, SceneError> {
     match ModelFormat::of(path) {
-        Some(ModelFormat::Gltf) => load_gltf(path, options).map(|g| LoadedModel {
-            scene: g.scene,
-            report: g.report,
-            cameras: g.cameras,
-            contents: g.contents,
-        }),
+        Some(ModelFormat::Gltf) => load_gltf(path, options),
         Some(ModelFormat::Obj) | None => {
             load_obj_with(path, options).map(|(scene, report)| LoadedModel {
                 scene,

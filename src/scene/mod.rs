@@ -26,7 +26,7 @@ mod texture_files;
 mod texture_image;
 mod warnings;
 
-pub use self::gltf::{load_gltf, FileCamera, LoadedGltf};
+pub use self::gltf::{load_gltf, FileCamera};
 pub use area_lights::{
     area_light_scene, AreaEmission, AreaLight, AreaShape, DISK_SEGMENTS, SPHERE_SUBDIVISIONS,
 };

@@ -27,7 +27,9 @@ use glam::{Affine3A, Vec3};
 
 use super::obj::check_counts;
 use super::warnings::{LoadOptions, Warnings};
-use super::{instanced, LoadReport, MeshPart, Scene, SceneError, TriangleMesh, VertexColours};
+use super::{
+    instanced, LoadReport, LoadedModel, MeshPart, Scene, SceneError, TriangleMesh, VertexColours,
+};
 use crate::geometry::Instance;
 use crate::limits::check_fits;
 use materials::Materials;
@@ -36,17 +38,8 @@ use primitives::Counts;
 /// Bytes of memory one placement by an instance holds (as a scene file's).
 const MEMORY_PER_INSTANCE: u64 = super::MEMORY_PER_PLACEMENT;
 
-/// A loaded glTF: the scene, what is worth telling, and the cameras its nodes place.
-pub struct LoadedGltf {
-    pub scene: Scene,
-    pub report: LoadReport,
-    pub cameras: Vec<FileCamera>,
-    /// `ember info`'s lines: each mesh (with how often it is placed) and each light.
-    pub contents: Vec<String>,
-}
-
 /// Loads the glTF at `path` (`.gltf` or `.glb`).
-pub fn load_gltf(path: &Path, options: &LoadOptions) -> Result<LoadedGltf, SceneError> {
+pub fn load_gltf(path: &Path, options: &LoadOptions) -> Result<LoadedModel, SceneError> {
     let fail = |reason: String| SceneError::Gltf {
         path: path.to_owned(),
         reason,
@@ -162,7 +155,7 @@ pub fn load_gltf(path: &Path, options: &LoadOptions) -> Result<LoadedGltf, Scene
         vertex_colours: counts.colours.then_some(VertexColours::Unit),
         warnings: warnings.lines,
     };
-    Ok(LoadedGltf {
+    Ok(LoadedModel {
         scene,
         report,
         cameras,
