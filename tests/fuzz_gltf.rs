@@ -15,7 +15,7 @@ mod common;
 use std::sync::OnceLock;
 
 use common::gltf::{floor_quad, GltfBuilder};
-use ember::scene::{load_gltf, LoadOptions};
+use ember::scene::{load_gltf, Channel, LoadOptions, Model};
 use proptest::prelude::*;
 use serde_json::{json, Value};
 
@@ -306,6 +306,12 @@ fn the_unchanged_file_loads_and_renders() {
             loaded.scene.opacity().is_some(),
             "the MASK material cuts out"
         );
+        // One metallic-roughness texture: roughness from green, metallic from blue.
+        let floor = &loaded.scene.materials[0];
+        assert!(matches!(floor.model, Model::MetallicRoughness { .. }));
+        assert!(floor.maps.roughness.is_some() && floor.maps.roughness == floor.maps.metallic);
+        assert_eq!(floor.maps.roughness_channel, Channel::Green);
+        assert_eq!(floor.maps.metallic_channel, Channel::Blue);
         common::fuzz::render_both(&loaded.scene).unwrap();
     }
 }

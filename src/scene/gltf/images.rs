@@ -1,7 +1,7 @@
 //! A glTF's images as ember's textures: each image's bytes (a file beside the glTF, a
 //! `data:` URI, or a buffer view of a GLB), decoded once, and from it every texture the
-//! materials ask of it: the base colour (sRGB, times its factor), roughness and
-//! metallic (the G and B channels, linear), the normal map (with its scale), the
+//! materials ask of it: the base colour (sRGB), the metallic-roughness texture
+//! (linear; its G and B channels read by the material), the normal map (with its scale), the
 //! emission, and the alpha channel as a cut-out. An image file that is absent is a
 //! warning (an error with `--strict`), as OBJ textures are.
 
@@ -10,7 +10,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
-use image::{ColorType, DynamicImage, ImageFormat};
+use image::{DynamicImage, ImageFormat};
 
 use super::source::{data_uri_mime, read_uri, uri_path, Source};
 use crate::image::ImageFile;
@@ -23,12 +23,10 @@ use crate::scene::{AlphaMap, SceneError, Texels, Texture, TextureKind};
 /// be told apart and ordered.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub enum Purpose {
-    /// The base colour times an RGB factor.
-    BaseColour([u32; 3]),
-    /// Roughness: the green channel.
-    Roughness,
-    /// Metallic: the blue channel.
-    Metallic,
+    /// The base colour (its factor multiplies it in the material).
+    BaseColour,
+    /// Roughness in the green channel, metallic in the blue: linear data.
+    MetallicRoughness,
     /// A tangent-space normal map whose X and Y are scaled.
     Normal(u32),
     Emission,
@@ -162,42 +160,22 @@ fn load_image(
                 .map_err(|reason| error(&path, reason));
         }
     };
-    // Three more bytes per texel for the RGB copy a texture keeps, nine for a scaled one.
+    // Twelve bytes per texel at most for the copy a texture keeps (a scaled normal map).
     file.and_then(|file| decode_image(file, 12))
         .map(Some)
         .map_err(|reason| error(here, format!("image {index}: {reason}")))
 }
 
-/// Whether the image holds 8 bits per channel (kept as bytes).
-fn eight_bit(image: &DynamicImage) -> bool {
-    matches!(
-        image.color(),
-        ColorType::L8 | ColorType::La8 | ColorType::Rgb8 | ColorType::Rgba8
-    )
-}
-
 /// The texture `purpose` makes of `image`.
 fn texture(image: &DynamicImage, purpose: Purpose) -> Texture {
     let (width, height) = (image.width(), image.height());
-    let channel = |c: usize| -> Texels {
-        if eight_bit(image) {
-            Texels::Gray8(image.to_rgb8().pixels().map(|p| p[c]).collect())
-        } else {
-            Texels::GrayF32(image.to_rgb32f().pixels().map(|p| p[c]).collect())
-        }
-    };
     let texels = match purpose {
-        Purpose::BaseColour(bits) => {
-            let factor = Vec3::from(bits.map(f32::from_bits));
-            let colour = Texture::from_image(image.clone(), TextureKind::Colour);
-            if factor == Vec3::ONE {
-                return colour;
-            }
-            let n = width as usize * height as usize;
-            Texels::RgbF32((0..n).map(|i| colour.texel(i) * factor).collect())
+        Purpose::BaseColour | Purpose::Emission => {
+            return Texture::from_image(image.clone(), TextureKind::Colour)
         }
-        Purpose::Roughness => channel(1),
-        Purpose::Metallic => channel(2),
+        Purpose::MetallicRoughness => {
+            return Texture::from_image(image.clone(), TextureKind::Vector)
+        }
         Purpose::Normal(bits) => {
             let scale = f32::from_bits(bits);
             let data = Texture::from_image(image.clone(), TextureKind::Vector);
@@ -212,7 +190,6 @@ fn texture(image: &DynamicImage, purpose: Purpose) -> Texture {
             });
             Texels::RgbF32(scaled.collect())
         }
-        Purpose::Emission => return Texture::from_image(image.clone(), TextureKind::Colour),
         Purpose::Alpha { .. } => unreachable!("alpha is an alpha map"),
     };
     Texture {

@@ -1,11 +1,9 @@
 //! glTF materials as ember's: the metallic-roughness parameters, their textures, the
 //! emission, the normal map, alpha and the texture coordinates each material reads.
 //!
-//! Until ember has the glTF BRDF itself, [`metallic_roughness`] maps a material onto
-//! the MTL model's Coated row with metallic blend (material.rs's table): Lambert base
-//! colour under a GGX layer of Fresnel 0.04 (glTF's dielectric F0), roughness α = r²,
-//! blended toward a conductor of the base colour by the metallic value. It is the one
-//! place that decides the BSDF.
+//! [`metallic_roughness`] makes each an ember [`Model::MetallicRoughness`] material
+//! (the specification's BRDF): factors multiply their textures, and the one
+//! metallic-roughness texture feeds roughness (green) and metallic (blue).
 //!
 //! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided` is
 //! read but changes nothing: ember shades both sides of every surface, as Cycles does.
@@ -21,10 +19,7 @@ use gltf::material::AlphaMode;
 use super::images::{make_textures, Made, Purpose};
 use super::source::Source;
 use crate::scene::warnings::Warnings;
-use crate::scene::{Material, MaterialMaps, Model, SceneError};
-
-/// The Fresnel reflectance of glTF's dielectric at normal incidence (IOR 1.5).
-const DIELECTRIC_F0: f32 = 0.04;
+use crate::scene::{Channel, Material, MaterialMaps, SceneError};
 
 /// Which texture coordinates a material's primitives read, and how they are moved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -54,9 +49,9 @@ pub struct GltfValues {
     pub base_colour: Vec3,
     pub base_texture: Option<u32>,
     pub metallic: f32,
-    pub metallic_texture: Option<u32>,
     pub roughness: f32,
-    pub roughness_texture: Option<u32>,
+    /// Roughness in its green channel, metallic in its blue.
+    pub metallic_roughness_texture: Option<u32>,
     pub emission: Vec3,
     pub emission_texture: Option<u32>,
     pub normal_texture: Option<u32>,
@@ -66,30 +61,23 @@ pub struct GltfValues {
 
 /// The one mapping from glTF's metallic-roughness parameters to an ember material.
 pub fn metallic_roughness(v: &GltfValues) -> Material {
-    let roughness = v.roughness.clamp(0.0, 1.0);
-    Material {
-        name: v.name.clone(),
-        diffuse: v.base_colour.clamp(Vec3::ZERO, Vec3::ONE),
-        diffuse_texture: v.base_texture,
-        specular: Vec3::splat(DIELECTRIC_F0),
-        emission: v.emission.max(Vec3::ZERO),
-        model: Model::Coated {
-            alpha: roughness * roughness,
-        },
-        roughness: Some(roughness),
-        shininess: None,
-        metallic: v.metallic.clamp(0.0, 1.0),
-        maps: MaterialMaps {
-            emission: v.emission_texture,
-            roughness: v.roughness_texture,
-            metallic: v.metallic_texture,
-            normal: v.normal_texture,
-            bump_scale: 1.0,
-            ..MaterialMaps::default()
-        },
-        opacity: v.opacity,
-        opacity_map: v.opacity_map,
-    }
+    let mut material =
+        Material::metallic_roughness(&v.name, v.base_colour, v.metallic, v.roughness);
+    material.diffuse_texture = v.base_texture;
+    material.emission = v.emission.max(Vec3::ZERO);
+    material.maps = MaterialMaps {
+        emission: v.emission_texture,
+        roughness: v.metallic_roughness_texture,
+        roughness_channel: Channel::Green,
+        metallic: v.metallic_roughness_texture,
+        metallic_channel: Channel::Blue,
+        normal: v.normal_texture,
+        bump_scale: 1.0,
+        ..MaterialMaps::default()
+    };
+    material.opacity = v.opacity;
+    material.opacity_map = v.opacity_map;
+    material
 }
 
 /// The materials of a glTF, with the default material last, their textures, and the
@@ -186,8 +174,7 @@ pub fn read_materials(source: &Source, warnings: &mut Warnings) -> Result<Materi
                 None => plan.values.opacity,
             },
             base_texture: id(plan.base),
-            metallic_texture: id(plan.metallic),
-            roughness_texture: id(plan.roughness),
+            metallic_roughness_texture: id(plan.metallic_roughness),
             emission_texture: id(plan.emission),
             normal_texture: id(plan.normal),
             opacity_map,
@@ -217,8 +204,7 @@ fn material_name(material: &gltf::Material<'_>) -> String {
 struct Plan {
     values: GltfValues,
     base: Option<(usize, Purpose)>,
-    metallic: Option<(usize, Purpose)>,
-    roughness: Option<(usize, Purpose)>,
+    metallic_roughness: Option<(usize, Purpose)>,
     emission: Option<(usize, Purpose)>,
     normal: Option<(usize, Purpose)>,
     alpha: Option<(usize, Purpose)>,
@@ -271,31 +257,24 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         Some(key)
     };
     let rgb = |v: Vec3| format!("{} {} {}", v.x, v.y, v.z);
-    let bits = |v: Vec3| [v.x.to_bits(), v.y.to_bits(), v.z.to_bits()];
-    let (mut base_key, mut metallic, mut roughness, mut emission, mut normal, mut alpha) =
-        (None, None, None, None, None, None);
+    let (mut base_key, mut metallic_roughness, mut emission, mut normal, mut alpha) =
+        (None, None, None, None, None);
     if let Some(info) = pbr.base_color_texture() {
         let s = slot(&info, "baseColorTexture")?;
         let instead = format!(
             "the material uses its baseColorFactor {} instead",
             rgb(colour)
         );
-        base_key = ask(s.image, Purpose::BaseColour(bits(colour)), instead);
+        base_key = ask(s.image, Purpose::BaseColour, instead);
         slots.push(s);
     }
     if let Some(info) = pbr.metallic_roughness_texture() {
         let s = slot(&info, "metallicRoughnessTexture")?;
-        let say = |key: &str, v: f32| format!("the material uses its {key} {v} instead");
-        metallic = ask(
-            s.image,
-            Purpose::Metallic,
-            say("metallicFactor", values.metallic),
+        let instead = format!(
+            "the material uses its metallicFactor {} and roughnessFactor {} instead",
+            values.metallic, values.roughness
         );
-        roughness = ask(
-            s.image,
-            Purpose::Roughness,
-            say("roughnessFactor", values.roughness),
-        );
+        metallic_roughness = ask(s.image, Purpose::MetallicRoughness, instead);
         slots.push(s);
     }
     if let Some(info) = material.emissive_texture() {
@@ -357,8 +336,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
     Ok(Plan {
         values,
         base: base_key,
-        metallic,
-        roughness,
+        metallic_roughness,
         emission,
         normal,
         alpha,
