@@ -9,6 +9,8 @@
 #                      edge of f32, instanced scenes on both backends; some through `ember render`)
 #   fuzz_ply           PLY meshes (every property and list type, every encoding; damaged bytes,
 #                      cuts, huge header counts)
+#   fuzz_gltf          glTF and GLB files (JSON values at the edge of f32 and u32, wrong types, node
+#                      cycles, broken URIs; GLB bytes and lengths overwritten, files cut short)
 #   fuzz_exr           EXR files for `ember denoise` (half/float, every lossless compression, scan
 #                      lines and tiles, huge claimed sizes; damaged headers and bytes)
 # Each target's test is the function named like it with its fuzz_ prefix. The address

@@ -75,7 +75,6 @@ fn other_formats_are_named_with_what_ember_reads() {
     let dir = tempfile::tempdir().unwrap();
     for (name, what) in [
         ("model.stl", "not STL"),
-        ("model.gltf", "not glTF"),
         ("photo.png", "not images"),
         ("model.xyz", "not .xyz files"),
         ("model", "this file has none"),

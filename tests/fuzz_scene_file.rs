@@ -18,13 +18,8 @@ mod common;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
-use std::sync::OnceLock;
 
-use ember::accel::{instanced_bvh, instanced_embree, Accel};
-use ember::embree::{BuildQuality, Device};
-use ember::integrator::IntegratorKind;
-use ember::render::{self, RenderSettings};
-use ember::scene::{CameraSettings, Scene, SceneFile};
+use ember::scene::SceneFile;
 use proptest::prelude::*;
 
 fn cornell() -> String {
@@ -205,49 +200,6 @@ fn input() -> impl Strategy<Value = Input> {
     )
 }
 
-fn device() -> &'static Device {
-    static DEVICE: OnceLock<Device> = OnceLock::new();
-    DEVICE.get_or_init(|| Device::new("threads=1").expect("Embree device"))
-}
-
-/// Renders 4x4 pixels at 1 sample through the framing camera on `accel`.
-fn render_on<A: Accel>(scene: &Scene, accel: &A) -> Result<(), TestCaseError> {
-    let (lo, hi) = scene.bounds();
-    let camera = CameraSettings::framing(lo, hi, 40.0);
-    if camera.validate().is_err() {
-        return Ok(());
-    }
-    let settings = RenderSettings {
-        width: 4,
-        height: 4,
-        spp: 1,
-        max_depth: 3,
-        seed: 1,
-        integrator: IntegratorKind::Bsdf,
-        light_sampler: Default::default(),
-        adaptive: None,
-        guiding: None,
-        engine: Default::default(),
-    };
-    let (image, _) = render::render(scene, accel, &camera.camera(4, 4), &settings, &|_| {});
-    prop_assert!(image.pixels.iter().all(|p| p.is_finite()));
-    Ok(())
-}
-
-/// An instanced scene on both backends; a plain one on Embree (as the other fuzz
-/// targets do).
-fn render_both(scene: &Scene) -> Result<(), TestCaseError> {
-    let Some(instancing) = &scene.instancing else {
-        return common::fuzz::render_tiny(scene).map(drop);
-    };
-    let embree = instanced_embree(device(), &scene.mesh, instancing, BuildQuality::Low, None)
-        .map_err(|e| TestCaseError::fail(format!("Embree build failed: {e}")))?;
-    render_on(scene, &embree)?;
-    let bvh = instanced_bvh(&scene.mesh, instancing)
-        .map_err(|e| TestCaseError::fail(format!("BVH build failed: {e}")))?;
-    render_on(scene, &bvh)
-}
-
 fn check_error(e: &ember::scene::SceneFileError, text: &str) -> Result<(), TestCaseError> {
     let line = e.to_string();
     let lines = text.lines().count().max(1);
@@ -315,7 +267,7 @@ fn check(input: &Input) -> Result<bool, TestCaseError> {
     };
     let (lo, hi) = scene.bounds();
     prop_assert!(lo.is_finite() && hi.is_finite(), "{}", text);
-    render_both(&scene)?;
+    common::fuzz::render_both(&scene)?;
     Ok(true)
 }
 

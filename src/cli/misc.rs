@@ -119,6 +119,9 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         "triangles: {} ({} vertices{dropped}){placed}",
         report.triangles, report.vertices
     );
+    for line in &loaded.contents {
+        println!("{line}");
+    }
     print_materials(scene);
     print_lights(&loaded);
     print_placed_lights(&loaded.placed_lights);
@@ -129,14 +132,16 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         "bounds: ({}, {}, {}) to ({}, {}, {}), size {} x {} x {}",
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z, size.x, size.y, size.z
     );
-    let how = match loaded.automatic_camera {
-        true => "automatic, framing the bounds from +z",
-        false => "the scene file's",
+    let how = match (&loaded.file_camera, loaded.automatic_camera) {
+        (Some(name), _) => format!("the file's camera {name:?}"),
+        (None, true) => "automatic, framing the bounds from +z".to_owned(),
+        (None, false) => "the scene file's".to_owned(),
     };
     println!(
         "camera ({how}): {}",
         super::render::camera_flags(&loaded.camera_settings)
     );
+    print_file_cameras(&loaded.file_cameras);
     match report.vertex_colours {
         Some(colours) => println!(
             "vertex colours: written in {}, multiplying each material's diffuse colour",
@@ -281,6 +286,21 @@ fn print_lights(loaded: &LoadedScene) {
         );
     }
     println!("sky: {}", loaded.sky);
+}
+
+/// The cameras a model file places (a glTF's), one line each, when it has any.
+fn print_file_cameras(cameras: &[ember::scene::FileCamera]) {
+    if cameras.is_empty() {
+        return;
+    }
+    println!("cameras: {} (--camera NAME or index from 0)", cameras.len());
+    for (i, camera) in cameras.iter().enumerate() {
+        let what = match &camera.settings {
+            Some(settings) => super::render::camera_flags(settings),
+            None => "orthographic (not rendered)".to_owned(),
+        };
+        println!("  {i} {:?}: {what}", camera.name);
+    }
 }
 
 /// The lights a scene file places, one line each.

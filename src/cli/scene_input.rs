@@ -10,7 +10,7 @@ use ember::scene::{ModelFormat, MODEL_FORMATS};
 /// A scene's format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SceneFormat {
-    /// A model file ember reads ([`ModelFormat`]): OBJ, PLY.
+    /// A model file ember reads ([`ModelFormat`]): OBJ, glTF, PLY.
     Model,
     /// An ember scene file: OBJs placed, cameras, environment, settings.
     SceneFile,
@@ -26,6 +26,9 @@ impl SceneFormat {
         let ext = path
             .extension()
             .map(|e| e.to_string_lossy().to_ascii_lowercase());
+        if ModelFormat::of(path).is_some() {
+            return Ok(SceneFormat::Model);
+        }
         match ext.as_deref() {
             Some("toml") => Ok(SceneFormat::SceneFile),
             Some(ext) => bail!(
@@ -44,7 +47,6 @@ impl SceneFormat {
 /// The name of a format users try, for the message.
 fn known_format(ext: &str) -> Option<&'static str> {
     Some(match ext {
-        "gltf" | "glb" => "glTF",
         "stl" => "STL",
         "fbx" => "FBX",
         "dae" => "COLLADA",

@@ -52,9 +52,25 @@ impl ImageFile {
     pub fn open(path: &Path) -> Result<ImageFile, String> {
         let input = InputFile::open(path).map_err(|e| e.reason)?;
         let file_bytes = input.len();
-        let mut reader = ImageReader::new(input.into_reader());
         // The extension first (TGA has no signature), then the bytes where they tell.
-        if let Ok(format) = ImageFormat::from_path(path) {
+        let format = ImageFormat::from_path(path).ok();
+        Self::from_reader(input.into_reader(), file_bytes, format)
+    }
+
+    /// An image held in memory (a glTF's embedded image), its format told by `format`
+    /// (a MIME type's) or else guessed from its bytes.
+    pub fn from_bytes(bytes: Vec<u8>, format: Option<ImageFormat>) -> Result<ImageFile, String> {
+        let len = bytes.len() as u64;
+        Self::from_reader(std::io::Cursor::new(bytes), len, format)
+    }
+
+    fn from_reader<R: std::io::BufRead + std::io::Seek + 'static>(
+        source: R,
+        file_bytes: u64,
+        format: Option<ImageFormat>,
+    ) -> Result<ImageFile, String> {
+        let mut reader = ImageReader::new(source);
+        if let Some(format) = format {
             reader.set_format(format);
         }
         let mut reader = reader.with_guessed_format().map_err(one_line)?;

@@ -116,6 +116,9 @@ struct Document {
     camera: BTreeMap<String, Table>,
     #[serde(default)]
     obj: Vec<Spanned<Entry>>,
+    /// `[[mesh]]`: the same as `[[obj]]`, for any model file ember reads.
+    #[serde(default)]
+    mesh: Vec<Spanned<Entry>>,
     #[serde(default)]
     instance: Vec<Spanned<Entry>>,
     #[serde(default)]
@@ -129,6 +132,7 @@ struct Document {
 pub(super) struct Entry {
     pub(super) file: Option<Spanned<String>>,
     pub(super) name: Option<Spanned<String>>,
+    #[serde(alias = "mesh")]
     pub(super) obj: Option<Spanned<String>>,
     pub(super) translate: Option<Spanned<[f32; 3]>>,
     pub(super) rotate: Option<Spanned<Rotation>>,
@@ -214,7 +218,11 @@ impl SceneFile {
             .into_iter()
             .map(|(name, table)| (name, settings(table)))
             .collect();
-        for entry in document.obj {
+        // `[[obj]]` and `[[mesh]]` entries, in the order they are written.
+        let mut models: Vec<Spanned<Entry>> = document.obj;
+        models.extend(document.mesh);
+        models.sort_by_key(|entry| entry.span().start);
+        for entry in models {
             file.add_obj(entry)?;
         }
         for entry in document.instance {
@@ -225,7 +233,11 @@ impl SceneFile {
             file.lights.push(light);
         }
         if file.objs.is_empty() {
-            return Err(file.error(0..0, "obj", "the scene has no [[obj]] to render"));
+            return Err(file.error(
+                0..0,
+                "mesh",
+                "the scene has no [[mesh]] (or [[obj]]) to render",
+            ));
         }
         Ok(file)
     }
@@ -448,13 +460,15 @@ impl SceneFile {
             loaded.push((scene, report));
         }
         let (mut scene, mut report) = self.place_objs(loaded)?;
+        // The lights the models place (a glTF's) and the file's own.
+        let model_lights = scene.lights.len();
         scene
             .lights
             .extend(self.lights.iter().filter_map(|l| match l.light {
                 PlacedLight::Light(light) => Some(light),
                 PlacedLight::Area(_) => None,
             }));
-        report.lights = self.lights.len();
+        report.lights = model_lights + self.lights.len();
         Ok((scene, report))
     }
 
@@ -528,7 +542,7 @@ impl SceneFile {
         let bounds: Vec<[Vec3; 2]> = loaded
             .iter()
             .map(|(scene, _)| {
-                let (lo, hi) = scene.mesh.bounds();
+                let (lo, hi) = scene.bounds();
                 [lo, hi]
             })
             .collect();
@@ -613,8 +627,15 @@ pub fn placement_memory_bytes(loaded: &[&Scene], placements: impl Iterator<Item 
         })
         .sum();
     let emitters = |obj: usize| loaded.get(obj).map_or(0, |s| s.emitters.len() as u64);
+    // An instanced scene (a glTF's nodes placing its meshes) is placed instance by instance.
+    let inner = |obj: usize| {
+        loaded
+            .get(obj)
+            .and_then(|s| s.instancing.as_ref())
+            .map_or(1, |i| i.instances.len() as u64)
+    };
     let placed: u64 = placements
-        .map(|obj| MEMORY_PER_PLACEMENT + emitters(obj) * MEMORY_PER_PLACED_EMITTER)
+        .map(|obj| inner(obj) * MEMORY_PER_PLACEMENT + emitters(obj) * MEMORY_PER_PLACED_EMITTER)
         .sum();
     meshes + placed
 }

@@ -231,7 +231,9 @@ fn bake_triangle(lights: &mut TriangleMesh, mesh: &TriangleMesh, t: u32, transfo
 
 /// The distinct `scenes` placed by `instances` (whose `mesh` indexes `scenes`) as one
 /// instanced scene: their meshes, materials, textures and cut-out maps merged once in
-/// object space, as [`super::compose`] merges them.
+/// object space, as [`super::compose`] merges them. A scene that is itself instanced
+/// (a glTF whose meshes its nodes place) brings its parts, and each placement of it
+/// places each of its instances.
 pub fn place(scenes: &[&Scene], instances: Vec<Instance>) -> Result<Scene, InstanceError> {
     object_transforms(&instances, scenes.len())?;
     let mut scene = match scenes {
@@ -247,20 +249,41 @@ pub fn place(scenes: &[&Scene], instances: Vec<Instance>) -> Result<Scene, Insta
             compose(&placements)
         }
     };
+    let mut parts = Vec::new();
+    let mut first_part = Vec::with_capacity(scenes.len());
     let mut first = 0u32;
-    let parts = scenes
-        .iter()
-        .map(|s| {
-            let count = s.mesh.triangles.len() as u32;
-            let triangles = first..first + count;
-            first += count;
-            let (lo, hi) = s.bounds();
-            MeshPart {
-                triangles,
-                bounds: [lo, hi],
+    for s in scenes {
+        first_part.push(parts.len() as u32);
+        match &s.instancing {
+            Some(inner) => parts.extend(inner.parts.iter().map(|p| MeshPart {
+                triangles: first + p.triangles.start..first + p.triangles.end,
+                bounds: p.bounds,
+            })),
+            None => {
+                let (lo, hi) = s.bounds();
+                let count = s.mesh.triangles.len() as u32;
+                parts.push(MeshPart {
+                    triangles: first..first + count,
+                    bounds: [lo, hi],
+                });
             }
-        })
-        .collect();
+        }
+        first += s.mesh.triangles.len() as u32;
+    }
+    let mut placed = Vec::with_capacity(instances.len());
+    for i in &instances {
+        let part = first_part[i.mesh as usize];
+        match &scenes[i.mesh as usize].instancing {
+            Some(inner) => placed.extend(inner.instances.iter().map(|j| Instance {
+                mesh: part + j.mesh,
+                transform: i.transform * j.transform,
+            })),
+            None => placed.push(Instance {
+                mesh: part,
+                transform: i.transform,
+            }),
+        }
+    }
     // Each placement of a scene places its lights that are not geometry too.
     scene.lights = instances
         .iter()
@@ -269,6 +292,17 @@ pub fn place(scenes: &[&Scene], instances: Vec<Instance>) -> Result<Scene, Insta
             lights.iter().map(|l| l.transformed(&i.transform))
         })
         .collect();
+    instanced(scene, parts, placed)
+}
+
+/// `scene` (its mesh holding each of `parts` once, in object space) placed by
+/// `instances`, whose `mesh` indexes `parts`; its lights are left as they are.
+pub fn instanced(
+    mut scene: Scene,
+    parts: Vec<MeshPart>,
+    instances: Vec<Instance>,
+) -> Result<Scene, InstanceError> {
+    object_transforms(&instances, parts.len())?;
     let instancing = Instancing::new(&scene.mesh, &scene.materials, parts, instances);
     scene.emitters = (0..instancing.lights.triangles.len() as u32).collect();
     scene.instancing = Some(Arc::new(instancing));

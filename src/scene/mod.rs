@@ -9,6 +9,7 @@ mod cutout;
 mod environment;
 mod file;
 mod formats;
+mod gltf;
 mod instances;
 mod light_table;
 mod lights;
@@ -26,6 +27,7 @@ mod texture_files;
 mod texture_image;
 mod warnings;
 
+pub use self::gltf::{load_gltf, FileCamera};
 pub use area_lights::{
     area_light_scene, AreaEmission, AreaLight, AreaShape, DISK_SEGMENTS, SPHERE_SUBDIVISIONS,
 };
@@ -38,7 +40,7 @@ pub use file::{
     Setting, MEMORY_PER_PLACEMENT,
 };
 pub use formats::{load_model, LoadedModel, ModelFormat, MODEL_FORMATS};
-pub use instances::{place, Instancing, MeshPart};
+pub use instances::{instanced, place, Instancing, MeshPart};
 pub use light_table::{PlacedLight, SceneLight};
 pub use lights::{
     intensity_from_candela, intensity_from_power, irradiance_from_lux, DirectionalLight, Light,
@@ -119,6 +121,8 @@ pub enum SceneError {
     Empty { path: PathBuf, detail: String },
     #[error("{path}: {what}")]
     TooLarge { path: PathBuf, what: String },
+    #[error("{path}: {reason}")]
+    Gltf { path: PathBuf, reason: String },
     #[error("environment map {path}: {reason}")]
     Environment { path: PathBuf, reason: String },
 }

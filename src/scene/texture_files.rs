@@ -247,7 +247,15 @@ fn split_word(text: &str) -> (&str, &str) {
 /// Decodes an image file, refusing one whose decoding and copies (`bytes_per_texel` of
 /// them beside the decoded image) would not fit in memory.
 fn decode(path: &Path, bytes_per_texel: u64) -> Result<DynamicImage, String> {
-    let image = crate::image::ImageFile::open(path)?.decode_within("texture", bytes_per_texel)?;
+    decode_image(crate::image::ImageFile::open(path)?, bytes_per_texel)
+}
+
+/// Decodes an opened image as [`decode`] does a file.
+pub(super) fn decode_image(
+    file: crate::image::ImageFile,
+    bytes_per_texel: u64,
+) -> Result<DynamicImage, String> {
+    let image = file.decode_within("texture", bytes_per_texel)?;
     if let Some((x, y, value)) = non_finite_texel(&image) {
         return Err(format!(
             "texel ({x}, {y}) holds {value}: every value must be finite"

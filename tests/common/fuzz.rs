@@ -6,7 +6,7 @@
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
-use ember::accel::EmbreeAccel;
+use ember::accel::{instanced_bvh, instanced_embree, Accel, EmbreeAccel};
 use ember::embree::{BuildQuality, Device};
 use ember::integrator::IntegratorKind;
 use ember::render::{self, RenderSettings};
@@ -83,6 +83,12 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         Ok(a) => a,
         Err(e) => return Err(TestCaseError::fail(format!("Embree build failed: {e}"))),
     };
+    render_on(scene, &accel, 4)
+}
+
+/// Renders 4x4 pixels at 1 sample on `accel`, framing the scene; every pixel must be
+/// finite. Returns how many samples were NaN or infinite (dropped by the film).
+fn render_on<A: Accel>(scene: &Scene, accel: &A, max_depth: u32) -> Result<u64, TestCaseError> {
     let (lo, hi) = scene.bounds();
     let camera = CameraSettings::framing(lo, hi, 40.0);
     if camera.validate().is_err() {
@@ -92,7 +98,7 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         width: 4,
         height: 4,
         spp: 1,
-        max_depth: 4,
+        max_depth,
         seed: 1,
         integrator: IntegratorKind::Bsdf,
         light_sampler: Default::default(),
@@ -100,7 +106,20 @@ pub fn render_tiny(scene: &Scene) -> Result<u64, TestCaseError> {
         guiding: None,
         engine: Default::default(),
     };
-    let (film, stats) = render::render(scene, &accel, &camera.camera(4, 4), &settings, &|_| {});
+    let (film, stats) = render::render(scene, accel, &camera.camera(4, 4), &settings, &|_| {});
     prop_assert!(film.pixels.iter().all(|p| p.is_finite()));
     Ok(stats.dropped_samples)
+}
+
+/// An instanced scene on both backends; a plain one on Embree ([`render_tiny`]).
+pub fn render_both(scene: &Scene) -> Result<(), TestCaseError> {
+    let Some(instancing) = &scene.instancing else {
+        return render_tiny(scene).map(drop);
+    };
+    let embree = instanced_embree(device(), &scene.mesh, instancing, BuildQuality::Low, None)
+        .map_err(|e| TestCaseError::fail(format!("Embree build failed: {e}")))?;
+    render_on(scene, &embree, 3)?;
+    let bvh = instanced_bvh(&scene.mesh, instancing)
+        .map_err(|e| TestCaseError::fail(format!("BVH build failed: {e}")))?;
+    render_on(scene, &bvh, 3).map(drop)
 }

@@ -4,6 +4,7 @@
 pub mod bsdf;
 pub mod exr;
 pub mod fuzz;
+pub mod gltf;
 pub mod ply;
 pub mod stats;
 

@@ -30,11 +30,12 @@ const ADVANCED: &str = "Advanced";
 #[derive(Args)]
 #[command(after_long_help = "The guide (docs/guide.md) explains these flags by task.")]
 pub struct RenderArgs {
-    /// The mesh (.obj, .ply), or a scene file (.toml).
+    /// The scene: an OBJ, a glTF 2.0 file (.gltf, .glb), a PLY mesh (.ply), or a scene file (.toml).
     ///
-    /// An OBJ's material libraries and textures are read from beside it. A scene file
-    /// holds OBJs with transforms and instances, cameras, the environment and settings,
-    /// which the flags given here override (see the guide's "Scene files").
+    /// An OBJ's material libraries and textures, and a glTF's buffers and images, are
+    /// read from beside it. A scene file holds models with transforms and instances,
+    /// cameras, the environment and settings, which the flags given here override (see
+    /// the guide's "Scene files").
     pub scene: PathBuf,
 
     /// Output image: .png, .exr or .hdr [default: the scene's name with .png].
@@ -67,7 +68,8 @@ pub struct RenderArgs {
     #[arg(long, help_heading = OUTPUT)]
     pub json: bool,
 
-    /// With a scene file: the camera of its [camera.NAME] table to render through.
+    /// The scene's camera to render through: a scene file's [camera.NAME], or a glTF's
+    /// camera by name or index (its first is the default).
     #[arg(long, value_name = "NAME", help_heading = CAMERA)]
     pub camera: Option<String>,
     /// Camera position, X,Y,Z [default: in front of the scene (+z), framing it].

@@ -11,7 +11,8 @@ use ember::embree::Device;
 use ember::light::LightSamplerKind;
 use ember::render::Engine;
 use ember::scene::{
-    load_model, Camera, CameraSettings, Environment, LoadReport, Scene, SceneLight,
+    load_model, Camera, CameraSettings, Environment, FileCamera, LoadReport, LoadedModel, Scene,
+    SceneLight,
 };
 use ember::wavefront::LaneScene;
 
@@ -60,17 +61,35 @@ pub struct LoadedScene {
     pub camera: Camera,
     /// The lights the scene file places (`ember info`).
     pub placed_lights: Vec<SceneLight>,
+    /// The cameras a model file places (a glTF's), and the one rendered through.
+    pub file_cameras: Vec<FileCamera>,
+    pub file_camera: Option<String>,
+    /// `ember info`'s lines about what else the model file holds.
+    pub contents: Vec<String>,
 }
 
-/// The camera the flags ask for, what they leave out framing the scene's bounds.
-fn camera_settings(request: &CameraRequest, scene: &Scene) -> Result<CameraSettings> {
+/// The camera the flags ask for: what they leave out taken from the model file's
+/// camera `file` where there is one, else framing the scene's bounds.
+fn camera_settings(
+    request: &CameraRequest,
+    scene: &Scene,
+    file: Option<&CameraSettings>,
+) -> Result<CameraSettings> {
     let (lo, hi) = scene.bounds();
-    let framing = CameraSettings::framing(lo, hi, request.fov);
+    let given = |flag: &str| file.is_none() || request.given.contains(&flag);
+    let fov = match file {
+        Some(f) if !given("fov") => f.vfov_degrees,
+        _ => request.fov,
+    };
+    let framing = match file {
+        Some(f) => *f,
+        None => CameraSettings::framing(lo, hi, fov),
+    };
     let camera_settings = CameraSettings {
         eye: request.eye.unwrap_or(framing.eye),
         look_at: request.look_at.unwrap_or(framing.look_at),
-        up: request.up,
-        vfov_degrees: request.fov,
+        up: if given("up") { request.up } else { framing.up },
+        vfov_degrees: fov,
         lens: request.lens,
     };
     camera_settings
@@ -90,11 +109,58 @@ fn check_wavefront(plan: &RenderPlan, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
+/// The model file's camera `--camera` names (by name, or by its index), else its first
+/// perspective camera; `None` when it has none.
+fn file_camera<'c>(
+    request: &CameraRequest,
+    cameras: &'c [FileCamera],
+    path: &std::path::Path,
+) -> Result<Option<&'c FileCamera>> {
+    let Some(name) = &request.name else {
+        return Ok(cameras.iter().find(|c| c.settings.is_some()));
+    };
+    let by_index = name.parse::<usize>().ok().and_then(|i| cameras.get(i));
+    let Some(camera) = cameras.iter().find(|c| &c.name == name).or(by_index) else {
+        let names: Vec<String> = cameras.iter().map(|c| format!("{:?}", c.name)).collect();
+        let list = if names.is_empty() {
+            "none".to_owned()
+        } else {
+            names.join(", ")
+        };
+        bail!(
+            "--camera {name:?}: {} has no such camera (its cameras, by name or index from 0: {list})",
+            path.display()
+        );
+    };
+    if camera.settings.is_none() {
+        bail!(
+            "--camera {name:?}: the camera {:?} of {} is orthographic; ember renders through \
+             perspective cameras",
+            camera.name,
+            path.display()
+        );
+    }
+    Ok(Some(camera))
+}
+
 /// Loads the plan's scene, sets its sky and chooses its camera.
 pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
-    let (mut scene, report) = match &plan.scene_file {
-        Some(file) => file.load_scene(&plan.load)?,
-        None => load_model(&plan.scene, &plan.load).map(|m| (m.scene, m.report))?,
+    let LoadedModel {
+        mut scene,
+        report,
+        cameras,
+        contents,
+    } = match &plan.scene_file {
+        Some(file) => {
+            let (scene, report) = file.load_scene(&plan.load)?;
+            LoadedModel {
+                scene,
+                report,
+                cameras: Vec::new(),
+                contents: Vec::new(),
+            }
+        }
+        None => load_model(&plan.scene, &plan.load)?,
     };
     // A placed light of any kind lights the scene: no default sky then.
     let unlit = scene.emitters.is_empty()
@@ -122,7 +188,10 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         _ => "none".to_owned(),
     };
     let request = &plan.camera;
-    let camera_settings = camera_settings(request, &scene)?;
+    let chosen = file_camera(request, &cameras, &plan.scene)?;
+    let camera_settings =
+        camera_settings(request, &scene, chosen.and_then(|c| c.settings.as_ref()))?;
+    let file_camera = chosen.map(|c| c.name.clone());
     let camera = camera_settings.camera(plan.settings.width, plan.settings.height);
     if plan.settings.engine == Engine::Wavefront {
         check_wavefront(plan, &scene)?;
@@ -133,11 +202,15 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         unlit,
         camera_settings,
         sky,
-        automatic_camera: request.eye.is_none() || request.look_at.is_none(),
+        automatic_camera: file_camera.is_none()
+            && (request.eye.is_none() || request.look_at.is_none()),
         camera,
         placed_lights: plan
             .scene_file
             .as_ref()
             .map_or_else(Vec::new, |file| file.lights.clone()),
+        file_cameras: cameras,
+        file_camera,
+        contents,
     })
 }

@@ -18,7 +18,7 @@ use std::process::ExitCode;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 
 use super::scene_input::SceneFormat;
 use ember::accel::{
@@ -38,15 +38,14 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
         let file = SceneFile::read(&args.scene)?;
         (scene_file::render_args(&file, user)?, Some(file))
     } else {
-        if args.camera.is_some() {
-            bail!(
-                "--camera chooses a camera of a scene file (.toml); {} is not one",
-                args.scene.display()
-            );
-        }
         (args, None)
     };
     let mut plan = RenderPlan::from_args(args);
+    match scene_file {
+        // The scene file's camera, chosen by --camera, is in the flags already.
+        Some(_) => plan.camera.name = None,
+        None => plan.camera.given = scene_file::camera_flags_given(user)?,
+    }
     plan.scene_file = scene_file;
     plan.check()?;
     plan.resume_defaults()?;

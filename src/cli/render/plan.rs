@@ -31,6 +31,12 @@ pub struct CameraRequest {
     pub up: Vec3,
     pub fov: f32,
     pub lens: Lens,
+    /// `--camera`: a camera of the scene by name or index (a scene file's cameras are
+    /// chosen before this; this names a model file's).
+    pub name: Option<String>,
+    /// Which of `eye`, `look-at`, `up` and `fov` the command line gave: they override
+    /// a model file's camera.
+    pub given: Vec<&'static str>,
 }
 
 /// Everything `ember render` was asked to do, mapped from the flags once.
@@ -130,6 +136,8 @@ impl RenderPlan {
                     aperture_radius: args.aperture.unwrap_or(0.0),
                     focus_distance: args.focus_distance,
                 },
+                name: args.camera,
+                given: Vec::new(),
             },
             background: args.background,
             env: args.env.map(|path| EnvRequest {

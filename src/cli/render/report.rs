@@ -43,10 +43,11 @@ pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&Ca
         plan.scene.display(),
         report.summary()
     );
-    if loaded.automatic_camera || verbosity::verbose() {
-        let how = match loaded.automatic_camera {
-            true => "automatic, framing the scene's bounds from +z",
-            false => "as given",
+    if loaded.automatic_camera || loaded.file_camera.is_some() || verbosity::verbose() {
+        let how = match (&loaded.file_camera, loaded.automatic_camera) {
+            (Some(name), _) => format!("the file's camera {name:?}"),
+            (None, true) => "automatic, framing the scene's bounds from +z".to_owned(),
+            (None, false) => "as given".to_owned(),
         };
         eprintln!("camera ({how}): {}", camera_flags(&loaded.camera_settings));
     }
@@ -139,9 +140,14 @@ pub fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_byt
     }
     let first_sample = timeline.started.elapsed();
     let loading = timeline.loaded.as_secs_f64();
+    // What the rate is of: a glTF's buffers (its binary data), an OBJ's text.
+    let read = match ember::scene::ModelFormat::of(&plan.scene) {
+        Some(ember::scene::ModelFormat::Gltf) => "glTF buffers",
+        _ => "OBJ",
+    };
     eprintln!(
         "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {loading:.2} s \
-         at {:.0} MB/s of OBJ, accelerator {:.2} s)",
+         at {:.0} MB/s of {read}, accelerator {:.2} s)",
         s.width,
         s.height,
         s.spp,

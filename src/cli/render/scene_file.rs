@@ -58,6 +58,24 @@ pub fn command_line_args(user: &[OsString]) -> Result<RenderArgs> {
     Ok(RenderArgs::from_arg_matches(&matches)?)
 }
 
+/// Which of the camera's flags (`eye`, `look-at`, `up`, `fov`) the command line gives
+/// (`user`, the arguments after `render`): they override a model file's camera.
+pub fn camera_flags_given(user: &[OsString]) -> Result<Vec<&'static str>> {
+    let argv = std::iter::once(OsString::from("render")).chain(user.iter().cloned());
+    let matches = render_command().try_get_matches_from(argv)?;
+    let ids = [
+        ("eye", "eye"),
+        ("look-at", "look_at"),
+        ("up", "up"),
+        ("fov", "fov"),
+    ];
+    Ok(ids
+        .into_iter()
+        .filter(|(_, id)| user_gave(&matches, id))
+        .map(|(flag, _)| flag)
+        .collect())
+}
+
 /// One checked setting: where it was written and the flags it stands for.
 struct Flag<'f> {
     setting: &'f Setting,

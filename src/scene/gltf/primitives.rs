@@ -1,0 +1,336 @@
+//! A glTF mesh's primitives as triangles of ember's mesh: triangle lists, strips and
+//! fans (points and lines are skipped, counted for one note), indexed or not, with
+//! their positions, normals, the texture coordinates their material reads and
+//! `COLOR_0`, placed by a transform (the identity for a mesh that instances place).
+
+use glam::{Affine3A, Mat3A, Vec2, Vec3};
+use gltf::mesh::Mode;
+use gltf::Semantic;
+
+use super::accessor::{read_indices, read_vectors};
+use super::materials::UvChoice;
+use crate::scene::TriangleMesh;
+
+/// What appending primitives found worth telling.
+#[derive(Default)]
+pub struct Counts {
+    /// Primitives of points or lines, skipped.
+    pub skipped_primitives: usize,
+    /// Primitives without positions, skipped.
+    pub no_positions: usize,
+    pub degenerate_dropped: usize,
+    pub morph_targets: bool,
+    /// Whether any primitive had vertex colours.
+    pub colours: bool,
+}
+
+/// Which attributes the mesh keeps per vertex: once one primitive has one, every
+/// vertex gets one (zero normals and UVs, white colours where its primitive had none).
+#[derive(Default)]
+struct Kept {
+    normals: bool,
+    uvs: bool,
+    colours: bool,
+}
+
+/// Appends the primitives of `meshes` (each placed by its transform) to `mesh`, and
+/// gives the number of triangles `mesh` has after each. `uv_of` gives the texture
+/// coordinates each material reads; `default_material` is the index of the material
+/// of primitives that name none.
+pub fn append_meshes(
+    mesh: &mut TriangleMesh,
+    meshes: &[(gltf::Mesh<'_>, Affine3A)],
+    buffers: &[Vec<u8>],
+    uv_of: &[UvChoice],
+    default_material: u32,
+    counts: &mut Counts,
+) -> Result<Vec<u32>, String> {
+    let mut kept = Kept::default();
+    let mut ends = Vec::with_capacity(meshes.len());
+    for (gltf_mesh, transform) in meshes {
+        for primitive in gltf_mesh.primitives() {
+            let what = format!(
+                "primitive {} of mesh {}",
+                primitive.index(),
+                gltf_mesh.index()
+            );
+            append_primitive(
+                mesh,
+                &primitive,
+                transform,
+                buffers,
+                uv_of,
+                default_material,
+                &mut kept,
+                counts,
+            )
+            .map_err(|e| format!("{what}: {e}"))?;
+        }
+        ends.push(mesh.triangles.len() as u32);
+    }
+    Ok(ends)
+}
+
+/// The vertices and triangles `meshes` declare, at most (before any is read), so that
+/// counts past ember's `u32` indices are refused first.
+pub fn declared_counts(meshes: &[(gltf::Mesh<'_>, Affine3A)]) -> (u64, u64) {
+    let (mut vertices, mut triangles) = (0u64, 0u64);
+    for (mesh, _) in meshes {
+        for primitive in mesh.primitives() {
+            let Some(positions) = primitive.get(&Semantic::Positions) else {
+                continue;
+            };
+            let n = positions.count() as u64;
+            let corners = primitive.indices().map_or(n, |i| i.count() as u64);
+            vertices += n;
+            triangles += match primitive.mode() {
+                Mode::Triangles => corners / 3,
+                Mode::TriangleStrip | Mode::TriangleFan => corners.saturating_sub(2),
+                _ => 0,
+            };
+        }
+    }
+    (vertices, triangles)
+}
+
+/// The triangles of `count` vertices in `mode` through `indices`, as corner lists.
+fn triangles(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
+    match mode {
+        Mode::Triangles => indices
+            .chunks_exact(3)
+            .map(|t| [t[0], t[1], t[2]])
+            .collect(),
+        // Every other strip triangle is wound the other way; the spec's order keeps
+        // them all counter-clockwise.
+        Mode::TriangleStrip => (2..indices.len())
+            .map(|i| {
+                let (a, b, c) = (indices[i - 2], indices[i - 1], indices[i]);
+                if i % 2 == 0 {
+                    [a, b, c]
+                } else {
+                    [b, a, c]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (2..indices.len())
+            .map(|i| [indices[i - 1], indices[i], indices[0]])
+            .collect(),
+        _ => Vec::new(),
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn append_primitive(
+    mesh: &mut TriangleMesh,
+    primitive: &gltf::Primitive<'_>,
+    transform: &Affine3A,
+    buffers: &[Vec<u8>],
+    uv_of: &[UvChoice],
+    default_material: u32,
+    kept: &mut Kept,
+    counts: &mut Counts,
+) -> Result<(), String> {
+    let mode = primitive.mode();
+    if !matches!(
+        mode,
+        Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
+    ) {
+        counts.skipped_primitives += 1;
+        return Ok(());
+    }
+    counts.morph_targets |= primitive.morph_targets().next().is_some();
+    let Some(positions) = primitive.get(&Semantic::Positions) else {
+        counts.no_positions += 1;
+        return Ok(());
+    };
+    if positions.view().is_none() {
+        return Err(format!(
+            "its POSITION accessor {} has no bufferView",
+            positions.index()
+        ));
+    }
+    let count = positions.count();
+    let material = primitive.material().index();
+    let uv = material.map_or(
+        UvChoice {
+            set: 0,
+            transform: None,
+        },
+        |m| uv_of[m],
+    );
+    // Every attribute counts as many values as POSITION: checked before any is read.
+    let attribute = |semantic: Semantic| -> Result<Option<gltf::Accessor<'_>>, String> {
+        match primitive.get(&semantic) {
+            Some(a) if a.count() != count => Err(format!(
+                "its {semantic:?} accessor has {} values, its POSITION {count}",
+                a.count()
+            )),
+            other => Ok(other),
+        }
+    };
+    let normals = attribute(Semantic::Normals)?;
+    let uvs = attribute(Semantic::TexCoords(uv.set))?;
+    let colours = attribute(Semantic::Colors(0))?;
+    let indices = match primitive.indices() {
+        Some(accessor) => read_indices(&accessor, buffers)?,
+        None => (0..count as u32).collect(),
+    };
+    if let Some(&i) = indices.iter().find(|&&i| i as usize >= count) {
+        return Err(format!(
+            "index {i} is out of range: there are {count} vertices"
+        ));
+    }
+    // Only the vertices the indices use: primitives often share one accessor of all
+    // of a mesh's vertices, each using a part of it.
+    let (used, indices) = compact(indices, count);
+    let count = used.as_ref().map_or(count, Vec::len);
+    let offset = mesh.positions.len();
+    let points = pick(&used, read_vectors::<3>(&positions, buffers, false)?);
+    for (i, p) in points.into_iter().enumerate() {
+        let p = transform.transform_point3(Vec3::from(p));
+        if !p.is_finite() {
+            return Err(format!(
+                "vertex {i} is not finite ({} {} {})",
+                p.x, p.y, p.z
+            ));
+        }
+        mesh.positions.push(p);
+    }
+    let normal_matrix: Mat3A = transform.matrix3.inverse().transpose();
+    let normal_values = normals
+        .map(|a| read_vectors::<3>(&a, buffers, false))
+        .transpose()?
+        .map(|values| {
+            pick(&used, values)
+                .into_iter()
+                .map(|n| {
+                    let n = Vec3::from(n);
+                    match n.is_finite() {
+                        true => {
+                            Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero()
+                        }
+                        false => Vec3::ZERO,
+                    }
+                })
+                .collect()
+        });
+    pad(
+        &mut mesh.normals,
+        &mut kept.normals,
+        offset,
+        count,
+        normal_values,
+        Vec3::ZERO,
+    );
+    let uv_values = uvs
+        .map(|a| read_vectors::<2>(&a, buffers, false))
+        .transpose()?
+        .map(|values| {
+            pick(&used, values)
+                .into_iter()
+                .map(|t| {
+                    let t = uv.apply(Vec2::from(t));
+                    if t.is_finite() {
+                        t
+                    } else {
+                        Vec2::ZERO
+                    }
+                })
+                .collect()
+        });
+    pad(
+        &mut mesh.uvs,
+        &mut kept.uvs,
+        offset,
+        count,
+        uv_values,
+        Vec2::ZERO,
+    );
+    let colour_values = colours
+        .map(|a| read_vectors::<3>(&a, buffers, true))
+        .transpose()?
+        .map(|values| {
+            pick(&used, values)
+                .into_iter()
+                .map(|c| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE))
+                .map(|c| if c.is_finite() { c } else { Vec3::ONE })
+                .collect()
+        });
+    counts.colours |= colour_values.is_some();
+    pad(
+        &mut mesh.colours,
+        &mut kept.colours,
+        offset,
+        count,
+        colour_values,
+        Vec3::ONE,
+    );
+    let material = material.map_or(default_material, |m| m as u32);
+    let mirrored = transform.matrix3.determinant() < 0.0;
+    for [a, b, c] in triangles(mode, &indices) {
+        let corners = if mirrored { [a, c, b] } else { [a, b, c] };
+        let tri = corners.map(|i| (offset + i as usize) as u32);
+        let [pa, pb, pc] = tri.map(|i| mesh.positions[i as usize]);
+        let doubled_area = (pb - pa).cross(pc - pa).length();
+        if !(doubled_area > 0.0 && doubled_area.is_finite()) {
+            counts.degenerate_dropped += 1;
+            continue;
+        }
+        mesh.triangles.push(tri);
+        mesh.material.push(material);
+    }
+    Ok(())
+}
+
+/// The vertices `indices` use, in order of first use, and the indices renumbered to
+/// them; `None` (and the indices as they are) when they use every one of `count`.
+fn compact(indices: Vec<u32>, count: usize) -> (Option<Vec<u32>>, Vec<u32>) {
+    let mut new_id = vec![u32::MAX; count];
+    let mut used = Vec::new();
+    let renumbered: Vec<u32> = indices
+        .iter()
+        .map(|&i| {
+            let id = &mut new_id[i as usize];
+            if *id == u32::MAX {
+                *id = used.len() as u32;
+                used.push(i);
+            }
+            *id
+        })
+        .collect();
+    match used.len() == count {
+        true => (None, indices),
+        false => (Some(used), renumbered),
+    }
+}
+
+/// The values of the vertices `used` (all of them without a list).
+fn pick<T: Copy>(used: &Option<Vec<u32>>, values: Vec<T>) -> Vec<T> {
+    match used {
+        Some(used) => used.iter().map(|&i| values[i as usize]).collect(),
+        None => values,
+    }
+}
+
+/// Appends a primitive's `values` of one attribute (or, where it has none but others
+/// had, `count` fill values), once any primitive has had that attribute.
+fn pad<T: Copy>(
+    list: &mut Vec<T>,
+    any: &mut bool,
+    offset: usize,
+    count: usize,
+    values: Option<Vec<T>>,
+    fill: T,
+) {
+    match values {
+        Some(values) => {
+            if !*any {
+                list.resize(offset, fill);
+                *any = true;
+            }
+            list.extend(values);
+        }
+        None if *any => list.resize(offset + count, fill),
+        None => {}
+    }
+}
