@@ -87,7 +87,7 @@ fn other_formats_are_named_with_what_ember_reads() {
             assert_eq!(err.lines().count(), 1, "{err}");
             assert!(
                 err.starts_with(&format!(
-                    "error: {name}: ember reads OBJ (.obj), PLY (.ply)"
+                    "error: {name}: ember reads OBJ (.obj), glTF 2.0 (.gltf, .glb), PLY (.ply)"
                 )),
                 "{err}"
             );

@@ -578,7 +578,7 @@ fn scene_files_check_color_where_it_is_written() {
         ("[[obj]]\nfile = \"plane.ply\"\ncolor = [0.5, 0.5]\n", "scene.toml:3:"),
         ("[[obj]]\nfile = \"plane.ply\"\nname = \"p\"\n[[instance]]\nobj = \"p\"\ncolor = [1, 1, 1]\n", "scene.toml:6:9: instance.color: an [[instance]] shares its [[obj]]'s mesh and colour"),
         ("[[obj]]\nfile = \"lit.obj\"\ncolor = [1, 0, 0]\n", "lit.obj gives every face a material: color is for faces without one"),
-        ("[[obj]]\nfile = \"model.stl\"\n", "model.stl: ember reads OBJ (.obj), PLY (.ply) models, not .stl files"),
+        ("[[obj]]\nfile = \"model.stl\"\n", "model.stl: ember reads OBJ (.obj), glTF 2.0 (.gltf, .glb), PLY (.ply) models, not .stl files"),
     ] {
         write(dir.path(), "scene.toml", toml.as_bytes());
         let out = ember(&["info", "scene.toml"], dir.path());
