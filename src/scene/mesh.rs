@@ -68,6 +68,19 @@ impl SurfacePoint {
 }
 
 impl TriangleMesh {
+    /// Room for one more vertex and triangle past the ends, with defined bytes: Embree
+    /// reads these arrays in place, 16 bytes at a time.
+    pub fn pad_for_embree(&mut self) {
+        self.positions.reserve_exact(1);
+        self.triangles.reserve_exact(1);
+        if let Some(slot) = self.positions.spare_capacity_mut().first_mut() {
+            slot.write(Vec3::ZERO);
+        }
+        if let Some(slot) = self.triangles.spare_capacity_mut().first_mut() {
+            slot.write([0; 3]);
+        }
+    }
+
     pub fn vertices(&self, prim: u32) -> [Vec3; 3] {
         let [a, b, c] = self.triangles[prim as usize];
         [

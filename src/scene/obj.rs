@@ -855,13 +855,7 @@ fn build_mesh(
             mesh.material.push(material);
         }
     }
-    // Defined bytes in the room past the ends, which Embree's 16-byte loads touch.
-    if let Some(slot) = mesh.positions.spare_capacity_mut().first_mut() {
-        slot.write(Vec3::ZERO);
-    }
-    if let Some(slot) = mesh.triangles.spare_capacity_mut().first_mut() {
-        slot.write([0; 3]);
-    }
+    mesh.pad_for_embree();
     if mesh.triangles.is_empty() {
         let detail = if report.degenerate_dropped > 0 {
             format!(

@@ -577,14 +577,7 @@ fn finish(
             detail,
         });
     }
-    mesh.positions.reserve_exact(1);
-    mesh.triangles.reserve_exact(1);
-    if let Some(slot) = mesh.positions.spare_capacity_mut().first_mut() {
-        slot.write(Vec3::ZERO);
-    }
-    if let Some(slot) = mesh.triangles.spare_capacity_mut().first_mut() {
-        slot.write([0; 3]);
-    }
+    mesh.pad_for_embree();
     let material = default_material_for(&mesh);
     let scene = Scene::new(mesh, vec![material], Vec::new());
     report.triangles = scene.mesh.triangles.len();

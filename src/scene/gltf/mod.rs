@@ -118,7 +118,7 @@ pub fn load_gltf(path: &Path, options: &LoadOptions) -> Result<LoadedModel, Scen
             detail: empty_detail(&placed, &counts),
         });
     }
-    pad_for_embree(&mut mesh);
+    mesh.pad_for_embree();
     let mut scene = Scene::new(mesh, materials, made.textures);
     scene.alpha_maps = made.alpha_maps;
     if !shared.is_empty() {
@@ -235,19 +235,6 @@ fn parts_and_instances(
         }
     }
     (parts, instances)
-}
-
-/// Room for one more vertex and triangle past the ends, with defined bytes: Embree
-/// reads these arrays in place, 16 bytes at a time.
-fn pad_for_embree(mesh: &mut TriangleMesh) {
-    mesh.positions.reserve_exact(1);
-    mesh.triangles.reserve_exact(1);
-    if let Some(slot) = mesh.positions.spare_capacity_mut().first_mut() {
-        slot.write(Vec3::ZERO);
-    }
-    if let Some(slot) = mesh.triangles.spare_capacity_mut().first_mut() {
-        slot.write([0; 3]);
-    }
 }
 
 /// One note for each thing the file has that ember leaves out.
