@@ -107,9 +107,48 @@ def cycles_render(scene, out_npy, spp, size, max_depth, seed, threads, backgroun
         sc.render.filepath = os.path.join(tmp, "cycles.exr")
         bpy.ops.render.render(write_still=True)
         np.save(out_npy, read_exr(sc.render.filepath, bpy))
+    np.save(out_npy.replace(".npy", "-objects.npy"), object_masks(bpy, sc, size))
     for o in sc.objects:
         if o.type == "LIGHT":
             print(f"light {o.name}: {o.data.type} {o.data.energy:.4g} W", file=sys.stderr)
+
+
+def object_masks(bpy, sc, size):
+    """Which object each pixel's centre sees, as a size x size array of strings ("" for
+    none), row 0 at the top: a ray from the camera through the pixel centre, cast by
+    Blender into the scene it renders. Only pixels whose 3x3 neighbourhood sees the same
+    object count in a region's mean (`region_means`), so edges, where the two renderers'
+    pixel filters differ, are left out."""
+    cam = sc.camera
+    depsgraph = bpy.context.evaluated_depsgraph_get()
+    # view_frame: top-right, bottom-right, bottom-left, top-left in camera space.
+    tr, br, bl, tl = (cam.matrix_world @ v for v in cam.data.view_frame(scene=sc))
+    origin = cam.matrix_world.translation
+    names = np.full((size, size), "", dtype=object)
+    for row in range(size):
+        v = (row + 0.5) / size
+        left, right = tl.lerp(bl, v), tr.lerp(br, v)
+        for col in range(size):
+            target = left.lerp(right, (col + 0.5) / size)
+            hit, _, _, _, obj, _ = sc.ray_cast(depsgraph, origin, (target - origin).normalized())
+            names[row, col] = obj.name if hit else ""
+    return names.astype(str)
+
+
+def region_means(image, names, prefix):
+    """Each object whose name starts with `prefix`: the mean of `image` over the pixels
+    inside its silhouette (3x3 neighbourhood all on it)."""
+    same = np.ones(names.shape, dtype=bool)
+    padded = np.pad(names, 1, mode="edge")
+    h, w = names.shape
+    for dy in (0, 1, 2):
+        for dx in (0, 1, 2):
+            same &= padded[dy:dy + h, dx:dx + w] == names
+    means = {}
+    for name in sorted(set(names.ravel())):
+        if name.startswith(prefix):
+            means[name] = image[same & (names == name)].mean()
+    return means
 
 
 def one_sided_emission(bpy):
@@ -185,6 +224,7 @@ def main():
           f"ember {a.ember}\n")
     print("| scene | Cycles mean | ember mean | ember / Cycles | relMSE |")
     print("|---|---|---|---|---|")
+    regions = []
     for name, background in SCENES:
         if a.only and name not in a.only:
             continue
@@ -205,7 +245,25 @@ def main():
         rel = ((ember - cycles) ** 2 / (cycles ** 2 + 0.01)).mean()
         ratio = ember.mean() / cycles.mean()
         print(f"| {stem} | {cycles.mean():.5f} | {ember.mean():.5f} | {ratio:.4f} | {rel:.3e} |")
+        regions.append((stem, np.load(cycles_npy.replace(".npy", "-objects.npy")),
+                        cycles, ember))
         sys.stdout.flush()
+    print_regions(regions)
+
+
+def print_regions(regions):
+    """Per-sphere means of the scenes with spheres named `metallicM-roughnessR`."""
+    rows = []
+    for stem, names, cycles, ember in regions:
+        c, e = region_means(cycles, names, "metallic"), region_means(ember, names, "metallic")
+        rows += [(stem, name, c[name], e[name]) for name in c]
+    if not rows:
+        return
+    print("\nEach sphere's mean over its silhouette (pixels whose 3x3 neighbourhood is on it):\n")
+    print("| scene | sphere | Cycles mean | ember mean | ember / Cycles |")
+    print("|---|---|---|---|---|")
+    for stem, name, c, e in rows:
+        print(f"| {stem} | {name} | {c:.5f} | {e:.5f} | {e / c:.4f} |")
 
 
 if __name__ == "__main__":
