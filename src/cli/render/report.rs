@@ -140,13 +140,14 @@ pub fn report_start(plan: &RenderPlan, film: &Film, timeline: &Timeline, obj_byt
     }
     let first_sample = timeline.started.elapsed();
     let loading = timeline.loaded.as_secs_f64();
-    // What the rate is of: a glTF's buffers (its binary data), an OBJ's text.
+    // What the rate is of: a glTF's buffers (its binary data), a PLY file, an OBJ's text.
     let read = match ember::scene::ModelFormat::of(&plan.scene) {
         Some(ember::scene::ModelFormat::Gltf) => "glTF buffers",
+        Some(ember::scene::ModelFormat::Ply) => "PLY",
         _ => "OBJ",
     };
     eprintln!(
-        "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {loading:.2} s \
+        "rendering {}x{} at {} spp{}{resumed}; first sample after {:.2} s (loading {loading:.3} s \
          at {:.0} MB/s of {read}, accelerator {:.2} s)",
         s.width,
         s.height,
