@@ -31,7 +31,7 @@ use multiversion::multiversion;
 use crate::accel::Accel;
 use crate::film::{FilmTile, Sample};
 use crate::scene::Pinhole;
-use path::{CameraSample, Tracer};
+use path::CameraSample;
 
 /// What the engine renders with: the scene's lanes, the accelerator, the camera.
 #[derive(Clone, Copy, Debug)]
@@ -51,15 +51,7 @@ impl<A: Accel> Wavefront<'_, A> {
     pub fn render_tile(&self, tile: &mut FilmTile, first: u32, target: u32) -> TileCost {
         let work = samples_of(tile, first, target);
         let mut radiance = vec![Vec3::ZERO; work.len()];
-        let tracer = Tracer {
-            scene: self.scene,
-            accel: self.accel,
-            camera: self.camera,
-            image_width: self.image_width,
-            max_depth: self.max_depth,
-            seed: self.seed,
-        };
-        let rays = trace_samples(&tracer, &work, &mut radiance);
+        let rays = trace_samples(self, &work, &mut radiance);
         let mut cost = TileCost {
             rays,
             taken: radiance.len() as u64,
@@ -121,6 +113,10 @@ fn samples_of(tile: &FilmTile, first: u32, target: u32) -> Vec<CameraSample> {
     "x86_64+avx2+fma+bmi1+bmi2+lzcnt+popcnt",
     "x86_64+sse4.1"
 ))]
-fn trace_samples<A: Accel>(tracer: &Tracer<'_, A>, work: &[CameraSample], out: &mut [Vec3]) -> u64 {
-    tracer.trace(work, out)
+fn trace_samples<A: Accel>(
+    engine: &Wavefront<'_, A>,
+    work: &[CameraSample],
+    out: &mut [Vec3],
+) -> u64 {
+    engine.trace(work, out)
 }

@@ -19,12 +19,11 @@ use std::f32::consts::FRAC_1_PI;
 use super::lanes::{map, F32s, Mask, U32s, Vec3s, W};
 use super::math::sincos_turns;
 use super::rng::{Draw, Pcg32s, SobolLanes};
-use super::scene::LaneScene;
+use super::Wavefront;
 use crate::accel::{Accel, Hits16, Rays16};
 use crate::geometry::{gamma, SHADOW_EPSILON, SPAWN_TMIN};
 use crate::integrator::ROULETTE_START_VERTEX;
 use crate::sampling::ONE_BELOW;
-use crate::scene::Pinhole;
 
 /// One camera sample: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -32,17 +31,6 @@ pub struct CameraSample {
     pub x: u32,
     pub y: u32,
     pub sample: u32,
-}
-
-/// What a block of paths needs to know of the render.
-#[derive(Clone, Copy, Debug)]
-pub struct Tracer<'a, A: Accel> {
-    pub scene: &'a LaneScene,
-    pub accel: &'a A,
-    pub camera: Pinhole,
-    pub image_width: u32,
-    pub max_depth: u32,
-    pub seed: u64,
 }
 
 /// The state of [`W`] paths, a lane each.
@@ -131,7 +119,7 @@ impl Paths {
     }
 }
 
-impl<A: Accel> Tracer<'_, A> {
+impl<A: Accel> Wavefront<'_, A> {
     /// The radiance of every camera sample of `work`, into `out` (sample `i` into
     /// `out[i]`); the rays traced.
     #[inline(always)]
