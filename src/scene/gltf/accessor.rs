@@ -161,7 +161,18 @@ pub fn read_vectors<const N: usize>(
                 count,
                 &what,
             )?;
-            (0..count).map(|i| read(strided.element(i))).collect()
+            match data_type {
+                // Most vertex data: decoded without a choice per component.
+                DataType::F32 => (0..count)
+                    .map(|i| {
+                        let b = strided.element(i);
+                        std::array::from_fn(|k| {
+                            f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+                        })
+                    })
+                    .collect(),
+                _ => (0..count).map(|i| read(strided.element(i))).collect(),
+            }
         }
         None if accessor.sparse().is_some() => vec![[0.0; N]; count],
         None => return Err(format!("{what} has no bufferView and no sparse values")),

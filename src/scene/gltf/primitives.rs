@@ -186,6 +186,7 @@ fn append_primitive(
     let count = used.as_ref().map_or(count, Vec::len);
     let offset = mesh.positions.len();
     let points = pick(&used, read_vectors::<3>(&positions, buffers, false)?);
+    mesh.positions.reserve(points.len());
     for (i, p) in points.into_iter().enumerate() {
         let p = transform.transform_point3(Vec3::from(p));
         if !p.is_finite() {
@@ -267,7 +268,10 @@ fn append_primitive(
     );
     let material = material.map_or(default_material, |m| m as u32);
     let mirrored = transform.matrix3.determinant() < 0.0;
-    for [a, b, c] in triangles(mode, &indices) {
+    let corners = triangles(mode, &indices);
+    mesh.triangles.reserve(corners.len());
+    mesh.material.reserve(corners.len());
+    for [a, b, c] in corners {
         let corners = if mirrored { [a, c, b] } else { [a, b, c] };
         let tri = corners.map(|i| (offset + i as usize) as u32);
         let [pa, pb, pc] = tri.map(|i| mesh.positions[i as usize]);

@@ -67,8 +67,19 @@ pub fn read(path: &Path) -> Result<Source, String> {
         .retain(|name| !EXTENSIONS_READ_HERE.contains(&name.as_str()));
     let document = Document::from_json(root).map_err(validation_message)?;
     let folder = path.parent().unwrap_or(Path::new("")).to_path_buf();
-    let bin = bin.map(<[u8]>::to_vec);
-    drop(bytes);
+    // The binary chunk becomes a buffer in the file's own allocation, not a copy.
+    let bin_at = bin.map(|chunk| {
+        (
+            chunk.as_ptr() as usize - bytes.as_ptr() as usize,
+            chunk.len(),
+        )
+    });
+    let bin = bin_at.map(|(start, length)| {
+        let mut owned = bytes;
+        owned.truncate(start + length);
+        owned.drain(..start);
+        owned
+    });
     let buffers = read_buffers(&document, &folder, bin)?;
     Ok(Source {
         document,
