@@ -15,6 +15,7 @@ The scenes are those of scripts/make_gltf_test_scenes.py (shipped in tests/data/
 | cornell-original.glb | its emissive ceiling lamp (KHR_materials_emissive_strength) |
 | spheres.glb | a uniform sky of radiance 1 (`--background 1,1,1`; Cycles' world colour 1) |
 | interior.glb | a point and a spot light (KHR_lights_punctual), no sky |
+| textured.glb | a sun (KHR_lights_punctual) and a uniform sky of radiance 0.2 |
 
 The Cycles side adapts `gltf_render.py` of the Cycles peer that ember's developers keep
 beside the repository (shared/peers/cycles, not part of ember) with the film settings of
@@ -50,6 +51,7 @@ SCENES = [
     ("cornell-original.glb", 0.0),
     ("spheres.glb", 1.0),
     ("interior.glb", 0.0),
+    ("textured.glb", 0.2),
 ]
 
 

@@ -18,6 +18,10 @@ VENV/bin/pip install bpy numpy`). Writes, each a .glb with its camera:
 - interior.glb: a closed box room (walls 0.7 grey, floor 0.5 with a red and a green
   wall), a cube and a sphere, lit only by a point light and a spot light
   (KHR_lights_punctual, which the exporter writes from Blender's watts).
+- textured.glb: textures as Blender writes them, each image made here (64x64): a floor
+  with a checker base colour (sRGB), a sphere whose metallic-roughness texture has
+  stripes of metal and of roughness, a cube with a normal map of ridges; lit by a sun
+  (KHR_lights_punctual directional) and a uniform sky the benchmark gives (0.2).
 
 Each file is rebuilt from scratch on every run. The exporter's order of a sphere's
 triangles in its index buffer differs from run to run; the geometry does not.
@@ -91,13 +95,13 @@ def add_mesh(scene, name, make, mat, location=(0, 0, 0), smooth=False):
     return obj
 
 
-def export(path):
+def export(path, texcoords=False):
     bpy.ops.export_scene.gltf(
         filepath=path,
         export_format="GLB",
         export_cameras=True,
         export_lights=True,
-        export_texcoords=False,
+        export_texcoords=texcoords,
         export_apply=True,
         export_yup=True,
     )
@@ -186,6 +190,104 @@ def interior(out):
     export(os.path.join(out, "interior.glb"))
 
 
+def image(name, pixel, colour_data):
+    """A 64x64 image of `pixel(x, y)` -> (r, g, b) in [0, 1], packed into the .blend so
+    that the exporter embeds it as PNG; `colour_data` images are sRGB, others raw data."""
+    size = 64
+    img = bpy.data.images.new(name, size, size, alpha=False)
+    img.colorspace_settings.name = "sRGB" if colour_data else "Non-Color"
+    values = []
+    for y in range(size):
+        for x in range(size):
+            values += [*pixel(x, y), 1.0]
+    img.pixels = values
+    img.file_format = "PNG"
+    img.pack()
+    return img
+
+
+def textured_material(name, base=None, metallic_roughness=None, normal=None):
+    """A Principled BSDF fed by image textures wired as Blender's exporter recognises:
+    an image into Base Color; one image's green into Roughness and blue into Metallic
+    (through Separate Color); an image through a Normal Map node."""
+    m = material(name, (0.8, 0.8, 0.8))
+    nodes, links = m.node_tree.nodes, m.node_tree.links
+    bsdf = nodes["Principled BSDF"]
+
+    def texture(img):
+        node = nodes.new("ShaderNodeTexImage")
+        node.image = img
+        node.interpolation = "Linear"
+        return node
+
+    if base is not None:
+        links.new(texture(base).outputs["Color"], bsdf.inputs["Base Color"])
+    if metallic_roughness is not None:
+        split = nodes.new("ShaderNodeSeparateColor")
+        links.new(texture(metallic_roughness).outputs["Color"], split.inputs["Color"])
+        links.new(split.outputs["Green"], bsdf.inputs["Roughness"])
+        links.new(split.outputs["Blue"], bsdf.inputs["Metallic"])
+    if normal is not None:
+        mapping = nodes.new("ShaderNodeNormalMap")
+        links.new(texture(normal).outputs["Color"], mapping.inputs["Color"])
+        links.new(mapping.outputs["Normal"], bsdf.inputs["Normal"])
+    return m
+
+
+def textured(out):
+    scene = empty_scene()
+    checker = image(
+        "checker",
+        lambda x, y: (0.8, 0.7, 0.2) if (x // 8 + y // 8) % 2 else (0.1, 0.2, 0.5),
+        True,
+    )
+    # Stripes across u: metal in every other 16-texel band, roughness 0.2 or 0.7 in
+    # bands of 8 (glTF: roughness in green, metal in blue).
+    stripes = image(
+        "metal-rough",
+        lambda x, y: (0.0, 0.2 if (x // 8) % 2 else 0.7, 1.0 if (x // 16) % 2 else 0.0),
+        False,
+    )
+
+    def ridge(x, y):
+        # Tangent-space normals tilting back and forth along u: ridges.
+        tilt = 0.5 * math.sin(2.0 * math.pi * x / 16.0)
+        n = (tilt, 0.0, 1.0)
+        length = math.sqrt(n[0] ** 2 + n[2] ** 2)
+        return (0.5 + 0.5 * n[0] / length, 0.5, 0.5 + 0.5 * n[2] / length)
+
+    ridges = image("ridges", ridge, False)
+    add_mesh(
+        scene,
+        "floor",
+        lambda: bpy.ops.mesh.primitive_plane_add(size=6.0),
+        textured_material("checker-floor", base=checker),
+    )
+    add_mesh(
+        scene,
+        "striped-sphere",
+        lambda: bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=0.6),
+        textured_material("striped", metallic_roughness=stripes),
+        (0.7, 0.6, 0.0),
+        smooth=True,
+    )
+    add_mesh(
+        scene,
+        "ridged-cube",
+        lambda: bpy.ops.mesh.primitive_cube_add(size=1.0),
+        textured_material("ridged", normal=ridges),
+        (-0.8, 0.5, 0.2),
+    )
+    sun = bpy.data.lights.new("sun", "SUN")
+    sun.energy = 2.0  # W/m², which the exporter writes as 2 * 683 lux
+    sun.angle = 0.0
+    light = bpy.data.objects.new("sun", sun)
+    light.rotation_euler = blender_vector((0.4, 1.0, 0.6)).to_track_quat("Z", "Y").to_euler()
+    scene.collection.objects.link(light)
+    add_camera(scene, (0.0, 2.2, 3.4), (0.0, 0.4, 0.0), 45.0)
+    export(os.path.join(out, "textured.glb"), texcoords=True)
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -194,6 +296,7 @@ def main():
     cornell(out)
     spheres(out)
     interior(out)
+    textured(out)
 
 
 if __name__ == "__main__":
