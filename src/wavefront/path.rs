@@ -24,7 +24,7 @@ use crate::accel::{Accel, Hits16, Rays16};
 use crate::geometry::{gamma, SHADOW_EPSILON, SPAWN_TMIN};
 use crate::integrator::ROULETTE_START_VERTEX;
 use crate::sampling::ONE_BELOW;
-use crate::scene::Pinhole;
+use crate::scene::CameraFrame;
 
 /// One camera sample: its pixel and its index among the pixel's samples.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -39,7 +39,7 @@ pub struct CameraSample {
 pub struct Tracer<'a, A: Accel> {
     pub scene: &'a LaneScene,
     pub accel: &'a A,
-    pub camera: Pinhole,
+    pub camera: CameraFrame,
     pub image_width: u32,
     pub max_depth: u32,
     pub seed: u64,
@@ -192,12 +192,18 @@ impl<A: Accel> Tracer<'_, A> {
         let c = &self.camera;
         let sx = (2.0 * (x.to_f32() + dx)) / c.width - 1.0;
         let sy = 1.0 - (2.0 * (y.to_f32() + dy)) / c.height;
-        let dir = Vec3s::splat(c.forward)
-            + Vec3s::splat(c.right).scale(sx)
-            + Vec3s::splat(c.up).scale(sy);
-        let eye = Vec3s::splat(c.eye);
         let infinity = F32s::splat(f32::INFINITY);
-        set_rays(&mut paths.rays, eye, normalize(dir), F32s::ZERO, infinity);
+        let eye = Vec3s::splat(c.eye);
+        let (origin, dir) = if c.parallel {
+            let offset = Vec3s::splat(c.right).scale(sx) + Vec3s::splat(c.up).scale(sy);
+            (eye + offset, Vec3s::splat(c.forward))
+        } else {
+            let dir = Vec3s::splat(c.forward)
+                + Vec3s::splat(c.right).scale(sx)
+                + Vec3s::splat(c.up).scale(sy);
+            (eye, normalize(dir))
+        };
+        set_rays(&mut paths.rays, origin, dir, F32s::ZERO, infinity);
         self.accel
             .intersect16(&paths.alive.0, &paths.rays, &mut paths.hits, true);
         Fresh {
