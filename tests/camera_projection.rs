@@ -443,7 +443,7 @@ fn scene_files_use_the_cameras_of_their_gltf_files() {
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(
         err.starts_with("error: --camera \"nope\": scene.toml has no such camera")
-            && err.contains("[camera.top], 0 \"persp\" of [[mesh]] \"set\", 1 \"flat\""),
+            && err.contains("[camera.top], \"persp\" of [[mesh]] \"set\", \"flat\""),
         "{err}"
     );
     // A table's unknown camera is refused at its line.
@@ -453,7 +453,10 @@ fn scene_files_use_the_cameras_of_their_gltf_files() {
     assert!(!run.status.success());
     assert_eq!(err.lines().count(), 1, "{err}");
     assert!(
-        err.starts_with("error: scene.toml:7:1: camera.top.camera: \"nope\""),
+        err.starts_with(
+            "error: scene.toml:7:1: camera.top.camera: the scene names the camera \"nope\", \
+             but has no such camera"
+        ),
         "{err}"
     );
     scene("[camera.top]\ncamera = [1]\n");

@@ -170,33 +170,37 @@ fn file_camera<'c>(plan: &RenderPlan, cameras: &'c [FileCamera]) -> Result<Optio
     };
     let named: Vec<&FileCamera> = cameras.iter().filter(|c| &c.name == name).collect();
     let by_index = name.parse::<usize>().ok().and_then(|i| cameras.get(i));
-    let problem = match (named.as_slice(), by_index) {
+    match (named.as_slice(), by_index) {
         ([camera], _) => return Ok(Some(*camera)),
         ([], Some(camera)) => return Ok(Some(camera)),
-        ([], None) => format!(
-            "no such camera (its cameras, by name or index from 0: {})",
-            camera_list(plan, cameras)
-        ),
-        (several, _) => format!(
-            "{} cameras have that name (in {}): give its index from 0 (its cameras: {})",
-            several.len(),
-            several
-                .iter()
-                .map(|c| c
-                    .mesh
-                    .as_deref()
-                    .map_or("the file".into(), |m| format!("[[mesh]] {m:?}")))
-                .collect::<Vec<_>>()
-                .join(", "),
-            camera_list(plan, cameras)
-        ),
+        _ => {}
+    }
+    let list = camera_list(plan, cameras);
+    let what = match named.len() {
+        0 => format!("no such camera (its cameras, by name or index from 0: {list})"),
+        n => {
+            let places: Vec<String> = named.iter().map(|c| place_of(c)).collect();
+            format!(
+                "{n} cameras of that name ({}): give its index (its cameras, in order from \
+                 0: {list})",
+                places.join(", ")
+            )
+        }
     };
     match (&plan.scene_file, &choice.named_at) {
         (Some(file), Some((key, span))) => {
-            let message = format!("{name:?}: the scene's glTF files have {problem}");
+            let message = format!("the scene names the camera {name:?}, but has {what}");
             Err(file.error(span.clone(), key, &message).into())
         }
-        _ => bail!("--camera {name:?}: {} has {problem}", plan.scene.display()),
+        _ => bail!("--camera {name:?}: {} has {what}", plan.scene.display()),
+    }
+}
+
+/// A camera as its list names it: `"NAME"`, and the `[[mesh]]` entry of a scene file's.
+fn place_of(camera: &FileCamera) -> String {
+    match &camera.mesh {
+        Some(mesh) => format!("{:?} of [[mesh]] {mesh:?}", camera.name),
+        None => format!("{:?}", camera.name),
     }
 }
 
@@ -205,10 +209,7 @@ fn file_camera<'c>(plan: &RenderPlan, cameras: &'c [FileCamera]) -> Result<Optio
 fn camera_list(plan: &RenderPlan, cameras: &[FileCamera]) -> String {
     let tables = plan.scene_file.iter().flat_map(|f| f.cameras.keys());
     let mut names: Vec<String> = tables.map(|t| format!("[camera.{t}]")).collect();
-    names.extend(cameras.iter().enumerate().map(|(i, c)| match &c.mesh {
-        Some(mesh) => format!("{i} {:?} of [[mesh]] {mesh:?}", c.name),
-        None => format!("{i} {:?}", c.name),
-    }));
+    names.extend(cameras.iter().map(place_of));
     match names.is_empty() {
         true => "none".to_owned(),
         false => names.join(", "),
