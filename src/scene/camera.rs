@@ -280,11 +280,6 @@ impl Camera {
         })
     }
 
-    /// Whether rays are parallel (an orthographic camera).
-    pub fn is_orthographic(&self) -> bool {
-        self.parallel
-    }
-
     /// Whether rays come from a lens disk (then [`lens_ray`](Self::lens_ray) takes
     /// two more random numbers) rather than from the eye alone.
     #[inline]

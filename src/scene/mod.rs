@@ -62,7 +62,7 @@ pub use opacity_map::AlphaMap;
 pub use ply::{load_ply, load_ply_with, MEMORY_PER_PLY_TRIANGLE, MEMORY_PER_PLY_VERTEX};
 pub use tangents::mikktspace_tangents;
 pub use texture_image::{Texels, Texture, TextureKind};
-pub use texture_sampler::{Filter, Footprint, Sampler, Wrap};
+pub use texture_sampler::{Filter, Sampler, Wrap};
 pub use warnings::LoadOptions;
 
 use glam::{Vec2, Vec3, Vec4};
