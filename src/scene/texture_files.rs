@@ -35,14 +35,17 @@ pub(super) struct Referrer<'a> {
 /// an alpha map (a `map_Kd`'s, when not opaque), and the statement's `-bm` multiplier.
 type Loaded = ((u32, Option<u32>), f32);
 
+/// What a texture is decoded from and looked up by: its file, how it is decoded,
+/// whether it is a `map_Kd` (whose alpha channel is an alpha map, kept beside it) and
+/// its sampler.
+type TextureKey = (PathBuf, TextureKind, bool, Sampler);
+
 /// The textures and alpha maps of a scene as its materials name them.
 #[derive(Default)]
 pub(super) struct TextureLoader {
     pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    /// Keyed by file, by how it is decoded, by whether it is a `map_Kd` (whose
-    /// alpha channel is an alpha map, kept beside it) and by its sampler.
-    texture_ids: HashMap<(PathBuf, TextureKind, bool, Sampler), (u32, Option<u32>)>,
+    texture_ids: HashMap<TextureKey, (u32, Option<u32>)>,
     /// Keyed by file, by whether it is a `map_d` (which falls back to luminance) and
     /// by its sampler.
     alpha_ids: HashMap<(PathBuf, bool, Sampler), u32>,

@@ -89,8 +89,8 @@ fn bilinear(f: &Footprint, texel: impl Fn(usize) -> Vec3) -> Vec3 {
         fx * fy,
     ];
     let mut sum = Vec3::ZERO;
-    for k in 0..4 {
-        sum += weight[k] * texel(f.index[k]);
+    for (w, &i) in weight.iter().zip(&f.index) {
+        sum += *w * texel(i);
     }
     sum
 }
