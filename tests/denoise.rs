@@ -184,7 +184,7 @@ fn denoised_16_spp_beats_noisy_64(scene: &Reference) {
         eye: Vec3::new(0.0, 1.0, 3.9),
         look_at: Vec3::new(0.0, 1.0, 0.0),
         up: Vec3::Y,
-        vfov_degrees: 40.0,
+        projection: ember::scene::Projection::perspective(40.0),
         lens: Default::default(),
     }
     .camera(SIZE, SIZE);

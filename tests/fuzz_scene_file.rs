@@ -66,7 +66,7 @@ fn value() -> impl Strategy<Value = String> + Clone {
 }
 
 /// Keys of every table, a few that belong elsewhere or nowhere.
-const KEYS: [&str; 34] = [
+const KEYS: [&str; 35] = [
     "spp",
     "width",
     "height",
@@ -100,6 +100,7 @@ const KEYS: [&str; 34] = [
     "look-at",
     "up",
     "fov",
+    "ortho-height",
     "zoom",
 ];
 

@@ -792,7 +792,7 @@ fn inside_camera(size: u32) -> Camera {
         eye: Vec3::new(0.0, 0.2, 0.9),
         look_at: Vec3::new(0.0, -0.4, -1.0),
         up: Vec3::Y,
-        vfov_degrees: 70.0,
+        projection: ember::scene::Projection::perspective(70.0),
         lens: Default::default(),
     }
     .camera(size, size)
@@ -1181,7 +1181,7 @@ fn guiding_is_part_of_the_render_identity() {
         eye: Vec3::ZERO,
         look_at: -Vec3::Z,
         up: Vec3::Y,
-        vfov_degrees: 40.0,
+        projection: ember::scene::Projection::perspective(40.0),
         lens: Default::default(),
     };
     let id = |guiding| {

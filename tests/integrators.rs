@@ -122,7 +122,7 @@ fn camera(eye: Vec3, look_at: Vec3, size: u32) -> Camera {
         eye,
         look_at,
         up: Vec3::Y,
-        vfov_degrees: 40.0,
+        projection: ember::scene::Projection::perspective(40.0),
         lens: Default::default(),
     }
     .camera(size, size)

@@ -798,7 +798,7 @@ fn the_default_is_the_bvh_from_a_measured_emitter_count() {
         eye: Vec3::new(0.0, 0.0, 3.0),
         look_at: Vec3::ZERO,
         up: Vec3::Y,
-        vfov_degrees: 40.0,
+        projection: ember::scene::Projection::perspective(40.0),
         lens: Default::default(),
     };
     let id = |built: &Built, light_sampler| {

@@ -669,7 +669,7 @@ fn guiding_with_a_point_light_renders_the_unguided_image() {
         eye: Vec3::new(0.0, 0.2, 0.9),
         look_at: Vec3::new(0.0, -0.4, -1.0),
         up: Vec3::Y,
-        vfov_degrees: 70.0,
+        projection: ember::scene::Projection::perspective(70.0),
         lens: Default::default(),
     }
     .camera(size, size);

@@ -82,7 +82,7 @@ fn render_lit(mut scene: Scene, eye: Vec3, look_at: Vec3, fov: f32) -> Image {
         eye,
         look_at,
         up: Vec3::Y,
-        vfov_degrees: fov,
+        projection: ember::scene::Projection::perspective(fov),
         lens: Default::default(),
     }
     .camera(48, 40);

@@ -21,7 +21,7 @@ fn reference_camera() -> CameraSettings {
         eye: Vec3::new(0.0, 1.0, 3.9),
         look_at: Vec3::new(0.0, 1.0, 0.0),
         up: Vec3::Y,
-        vfov_degrees: 40.0,
+        projection: ember::scene::Projection::perspective(40.0),
         lens: Default::default(),
     }
 }
@@ -102,7 +102,8 @@ fn emitters_seen_directly_cover_their_projected_area() {
     let forward = (cam.look_at - cam.eye).normalize();
     let right = forward.cross(cam.up).normalize();
     let up = right.cross(forward);
-    let tan_half = (cam.vfov_degrees.to_radians() / 2.0).tan();
+    let vfov = cam.projection.vfov_degrees().expect("a perspective camera");
+    let tan_half = (vfov.to_radians() / 2.0).tan();
     let project = |p: Vec3| {
         let d = p - cam.eye;
         let z = d.dot(forward);

@@ -326,7 +326,7 @@ fn settings_are_strict_in_every_table_and_located() {
             &[],
             (2, 1),
             "render.camera",
-            "no camera \"top\"",
+            "names the camera \"top\", but has no such camera",
         ),
         (
             format!("[camera.a]\nfov = 30\n[camera.b]\nfov = 40\n{obj}"),

@@ -35,7 +35,7 @@ fn camera(lens: Lens) -> CameraSettings {
         eye: Vec3::ZERO,
         look_at: Vec3::new(0.0, 0.0, -1.0),
         up: Vec3::Y,
-        vfov_degrees: FOV,
+        projection: ember::scene::Projection::perspective(FOV),
         lens,
     }
 }

@@ -137,10 +137,14 @@ fn scene_info(path: &Path, options: &LoadOptions) -> Result<()> {
         (None, true) => "automatic, framing the bounds from +z".to_owned(),
         (None, false) => "the scene file's".to_owned(),
     };
+    let (width, height) = loaded.size;
     println!(
-        "camera ({how}): {}",
+        "camera ({how}): {} --width {width} --height {height}",
         super::render::camera_flags(&loaded.camera_settings)
     );
+    if let Some(note) = &loaded.size_note {
+        println!("note: {note}");
+    }
     print_file_cameras(&loaded.file_cameras);
     match report.vertex_colours {
         Some(colours) => println!(
@@ -295,11 +299,15 @@ fn print_file_cameras(cameras: &[ember::scene::FileCamera]) {
     }
     println!("cameras: {} (--camera NAME or index from 0)", cameras.len());
     for (i, camera) in cameras.iter().enumerate() {
-        let what = match &camera.settings {
-            Some(settings) => super::render::camera_flags(settings),
-            None => "orthographic (not rendered)".to_owned(),
-        };
-        println!("  {i} {:?}: {what}", camera.name);
+        let flags = super::render::camera_flags(&camera.settings);
+        let mesh = camera
+            .mesh
+            .as_ref()
+            .map_or(String::new(), |m| format!(" of [[mesh]] {m:?}"));
+        let aspect = camera
+            .aspect
+            .map_or(String::new(), |a| format!(", aspect ratio {a}"));
+        println!("  {i} {:?}{mesh}: {flags}{aspect}", camera.name);
     }
 }
 

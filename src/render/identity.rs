@@ -9,7 +9,10 @@ use super::RenderSettings;
 use crate::accel::AccelKind;
 use crate::film::checkpoint::Identity;
 use crate::light::LightSamplerKind;
-use crate::scene::{CameraSettings, Channel, Light, Material, MaterialMaps, Model, Scene, Texels};
+use crate::scene::{
+    CameraSettings, Channel, Light, Material, MaterialMaps, Model, Projection, Sampler, Scene,
+    Texels, Wrap,
+};
 
 /// The version of what turns a (seed, pixel, sample) into a radiance estimate: the
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
@@ -88,8 +91,12 @@ pub fn identity(
                 format!("threshold {:?}, min-spp {}", a.threshold, a.min_spp)
             }),
         ),
-        // The field of view before the eye: the default eye is derived from it.
-        ("fov", format!("{:?}", camera.vfov_degrees)),
+        // The field of view before the eye: the default eye is derived from it. An
+        // orthographic camera names its height there instead.
+        match camera.projection {
+            Projection::Perspective { vfov_degrees } => ("fov", format!("{vfov_degrees:?}")),
+            Projection::Orthographic { height } => ("ortho-height", format!("{height:?}")),
+        },
         ("eye", v(camera.eye)),
         ("look-at", v(camera.look_at)),
         ("up", v(camera.up)),
@@ -196,6 +203,16 @@ impl Fingerprint {
                 self.u32s([4]);
                 self.f32s(t.iter().copied());
             }
+        }
+    }
+
+    /// A texture's sampler, only when it is not the default (repeat, bilinear), so that
+    /// the fingerprints of scenes made before samplers existed stay as they were.
+    fn sampler(&mut self, sampler: Sampler) {
+        if sampler != Sampler::default() {
+            let code = |w: Wrap| w as u32;
+            let filter = sampler.filter as u32;
+            self.u32s([u32::MAX, code(sampler.wrap_s), code(sampler.wrap_t), filter]);
         }
     }
 
@@ -336,12 +353,14 @@ pub fn scene_hash(scene: &Scene) -> u64 {
     for t in &scene.textures {
         h.u32s([t.width, t.height]);
         h.texels(&t.texels);
+        h.sampler(t.sampler);
     }
     if !scene.alpha_maps.is_empty() {
         h.len(scene.alpha_maps.len());
         for a in &scene.alpha_maps {
             h.u32s([a.width, a.height]);
             h.0.update(&a.texels);
+            h.sampler(a.sampler);
         }
     }
     if let Some(sky) = &scene.sky {

@@ -297,9 +297,7 @@ pub fn render_progressive<A: Accel>(
         let wavefront = lanes.as_ref().map(|lanes| Wavefront {
             scene: lanes,
             accel,
-            camera: camera
-                .pinhole()
-                .expect("the wavefront's camera is a pinhole"),
+            camera: camera.frame().expect("the wavefront's camera has no lens"),
             image_width: settings.width,
             max_depth: settings.max_depth,
             seed: settings.seed,

@@ -16,7 +16,10 @@ use serde::Deserialize;
 use toml::Spanned;
 
 use super::light_table::{read_light, LightEntry, PlacedLight, SceneLight};
-use super::{area_light_scene, load_model, place, AreaLight, LoadOptions, LoadReport, Scene};
+use super::{
+    area_light_scene, load_model, place, AreaLight, FileCamera, LoadOptions, LoadReport,
+    LoadedModel, Scene,
+};
 use crate::geometry::{Instance, MAX_RAY_COORDINATE, RAY_REACH};
 use crate::io::InputFile;
 use crate::limits::{check_fits, human_bytes};
@@ -439,12 +442,25 @@ impl SceneFile {
     /// value for value. The area lights are one more mesh, placed once where they are;
     /// the other lights join the placed scenes' own [`Scene::lights`].
     pub fn load_scene(&self, options: &LoadOptions) -> Result<(Scene, LoadReport), SceneFileError> {
+        self.load(options).map(|model| (model.scene, model.report))
+    }
+
+    /// [`SceneFile::load_scene`], with the cameras of the glTF files the entries name,
+    /// each placed by its entry's transform, in the order of the entries.
+    pub fn load(&self, options: &LoadOptions) -> Result<LoadedModel, SceneFileError> {
         // The placements alone, before any OBJ is read; all of it once they are.
         self.check_memory(&[])?;
         let mut loaded = Vec::with_capacity(self.objs.len());
-        for obj in &self.objs {
+        let mut cameras = Vec::new();
+        for (obj, placed) in self.objs.iter().zip(&self.placements) {
             let model = load_model(&obj.path, options)
                 .map_err(|e| self.error(obj.span.clone(), "obj.file", &e.to_string()))?;
+            // An entry's own placement is the first of each; its cameras go with it.
+            cameras.extend(model.cameras.into_iter().map(|camera| FileCamera {
+                settings: camera.settings.placed(&placed.transform),
+                mesh: Some(obj.name.clone()),
+                ..camera
+            }));
             let (mut scene, report) = (model.scene, model.report);
             if let Some((colour, span)) = &obj.color {
                 let Some(default) = report.default_material else {
@@ -469,7 +485,12 @@ impl SceneFile {
                 PlacedLight::Area(_) => None,
             }));
         report.lights = model_lights + self.lights.len();
-        Ok((scene, report))
+        Ok(LoadedModel {
+            scene,
+            report,
+            cameras,
+            contents: Vec::new(),
+        })
     }
 
     /// The area lights, and the names of their materials.

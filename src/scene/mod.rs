@@ -25,13 +25,14 @@ mod ply;
 mod tangents;
 mod texture_files;
 mod texture_image;
+mod texture_sampler;
 mod warnings;
 
 pub use self::gltf::{load_gltf, FileCamera};
 pub use area_lights::{
     area_light_scene, AreaEmission, AreaLight, AreaShape, DISK_SEGMENTS, SPHERE_SUBDIVISIONS,
 };
-pub use camera::{Camera, CameraSettings, Lens, Pinhole};
+pub use camera::{Camera, CameraFrame, CameraSettings, Lens, Projection};
 pub use compose::{compose, mirrors, Placement};
 pub use cutout::{coin, Opacity, PartOpacity};
 pub use environment::{Environment, SkySample};
@@ -61,6 +62,7 @@ pub use opacity_map::AlphaMap;
 pub use ply::{load_ply, load_ply_with, MEMORY_PER_PLY_TRIANGLE, MEMORY_PER_PLY_VERTEX};
 pub use tangents::mikktspace_tangents;
 pub use texture_image::{Texels, Texture, TextureKind};
+pub use texture_sampler::{Filter, Sampler, Wrap};
 pub use warnings::LoadOptions;
 
 use glam::{Vec2, Vec3, Vec4};

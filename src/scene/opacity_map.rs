@@ -1,10 +1,12 @@
 //! Opacity maps: one 8-bit plane per texture (0 transparent, 255 opaque), a twelfth of
-//! an RGB [`super::Texture`]'s memory, looked up like one (wrapping, bilinear). They come
+//! an RGB [`super::Texture`]'s memory, looked up like one (by its [`Sampler`]). They come
 //! from the alpha channel of a `map_Kd` or `map_d` image, or from the luminance of a
 //! `map_d` image without one. Opacity is data, not colour: nothing is sRGB-decoded.
 
 use glam::Vec2;
 use image::DynamicImage;
+
+use super::texture_sampler::{Filter, Sampler};
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct AlphaMap {
@@ -12,6 +14,8 @@ pub struct AlphaMap {
     pub height: u32,
     /// Row 0 at the top, as in the image file.
     pub texels: Vec<u8>,
+    /// The sampler of the texture it comes from.
+    pub sampler: Sampler,
 }
 
 impl AlphaMap {
@@ -27,6 +31,7 @@ impl AlphaMap {
             width: rgba.width(),
             height: rgba.height(),
             texels,
+            sampler: Sampler::default(),
         })
     }
 
@@ -39,6 +44,7 @@ impl AlphaMap {
                 width: rgba.width(),
                 height: rgba.height(),
                 texels: rgba.pixels().map(|p| p[3]).collect(),
+                sampler: Sampler::default(),
             };
         }
         let luma = image.to_luma8();
@@ -46,6 +52,7 @@ impl AlphaMap {
             width: luma.width(),
             height: luma.height(),
             texels: luma.into_raw(),
+            sampler: Sampler::default(),
         }
     }
 
@@ -55,26 +62,20 @@ impl AlphaMap {
     }
 
     /// The opacity in `[0, 1]` at `uv`; `(0, 0)` is the bottom-left of the image (OBJ
-    /// convention), as for colour textures.
+    /// convention), as for colour textures. 1 where `uv` is not finite.
     #[inline]
     pub fn sample(&self, uv: Vec2) -> f32 {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let x = uv.x.rem_euclid(1.0) * w - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * h - 0.5;
-        if !(x.is_finite() && y.is_finite()) {
-            return 1.0;
-        }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        let texel = |xi: f32, yi: f32| {
-            let xi = (xi as i64).rem_euclid(i64::from(self.width)) as usize;
-            let yi = (yi as i64).rem_euclid(i64::from(self.height)) as usize;
-            f32::from(self.texels[yi * self.width as usize + xi])
+        let (w, h, s) = (self.width, self.height, self.sampler);
+        let texel = |i: usize| f32::from(self.texels[i]);
+        let value = match s.filter {
+            Filter::Bilinear => s.footprint(uv, w, h).map(|f| {
+                let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
+                let [tl, tr, bl, br] = f.index.map(texel);
+                lerp(lerp(tl, tr, f.fx), lerp(bl, br, f.fx), f.fy)
+            }),
+            Filter::Nearest => s.nearest(uv, w, h).map(texel),
         };
-        let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
-        let top = lerp(texel(x0, y0), texel(x0 + 1.0, y0), fx);
-        let bottom = lerp(texel(x0, y0 + 1.0), texel(x0 + 1.0, y0 + 1.0), fx);
-        lerp(top, bottom, fy) * (1.0 / 255.0)
+        value.map_or(1.0, |v| v * (1.0 / 255.0))
     }
 }
 
@@ -104,6 +105,7 @@ mod tests {
             width: 2,
             height: 1,
             texels: vec![0, 255],
+            sampler: Sampler::default(),
         };
         assert_eq!(map.sample(Vec2::new(0.25, 0.5)), 0.0);
         assert_eq!(map.sample(Vec2::new(0.75, 0.5)), 1.0);

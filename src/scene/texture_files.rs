@@ -4,8 +4,9 @@
 //! channel of `map_Kd`, kept as linear 8-bit planes).
 //!
 //! A statement's value is `[-option args]... file name`: the options of the MTL
-//! specification are skipped with their arguments (`-bm` is kept, for bump maps), and
-//! the rest of the line is the file name (spaces included), found by the rules of
+//! specification are skipped with their arguments (`-bm` is kept, for bump maps, and
+//! `-clamp on` makes the texture clamp to its edges instead of repeating), and the
+//! rest of the line is the file name (spaces included), found by the rules of
 //! [`super::asset_paths`]. A file that is absent is a warning and the map is left out
 //! (an error with `--strict`); a file that is there but does not decode is an error.
 
@@ -17,7 +18,7 @@ use image::DynamicImage;
 
 use super::asset_paths;
 use super::warnings::Warnings;
-use super::{AlphaMap, SceneError, Texture, TextureKind};
+use super::{AlphaMap, Sampler, SceneError, Texture, TextureKind};
 
 /// The material a texture statement belongs to, where its file names are looked up,
 /// and what replaces a map whose file is absent.
@@ -34,16 +35,20 @@ pub(super) struct Referrer<'a> {
 /// an alpha map (a `map_Kd`'s, when not opaque), and the statement's `-bm` multiplier.
 type Loaded = ((u32, Option<u32>), f32);
 
+/// What a texture is decoded from and looked up by: its file, how it is decoded,
+/// whether it is a `map_Kd` (whose alpha channel is an alpha map, kept beside it) and
+/// its sampler.
+type TextureKey = (PathBuf, TextureKind, bool, Sampler);
+
 /// The textures and alpha maps of a scene as its materials name them.
 #[derive(Default)]
 pub(super) struct TextureLoader {
     pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    /// Keyed by file, by how it is decoded and by whether it is a `map_Kd` (whose
-    /// alpha channel is an alpha map, kept beside it).
-    texture_ids: HashMap<(PathBuf, TextureKind, bool), (u32, Option<u32>)>,
-    /// Keyed by file and by whether it is a `map_d` (which falls back to luminance).
-    alpha_ids: HashMap<(PathBuf, bool), u32>,
+    texture_ids: HashMap<TextureKey, (u32, Option<u32>)>,
+    /// Keyed by file, by whether it is a `map_d` (which falls back to luminance) and
+    /// by its sampler.
+    alpha_ids: HashMap<(PathBuf, bool, Sampler), u32>,
 }
 
 impl TextureLoader {
@@ -87,7 +92,8 @@ impl TextureLoader {
             return Ok(None);
         };
         let material = referrer.material;
-        let key = (file, kind, slot == "map_Kd");
+        let sampler = options.sampler();
+        let key = (file, kind, slot == "map_Kd", sampler);
         if let Some(&ids) = self.texture_ids.get(&key) {
             return Ok(Some((ids, options.bump_scale)));
         }
@@ -99,13 +105,13 @@ impl TextureLoader {
             .then(|| AlphaMap::from_alpha_channel(&image))
             .flatten()
             .map(|map| {
-                self.alpha_maps.push(Arc::new(map));
+                self.alpha_maps.push(Arc::new(AlphaMap { sampler, ..map }));
                 let id = self.alpha_maps.len() as u32 - 1;
-                self.alpha_ids.insert((key.0.clone(), false), id);
+                self.alpha_ids.insert((key.0.clone(), false, sampler), id);
                 id
             });
-        self.textures
-            .push(Arc::new(Texture::from_image(image, kind)));
+        let texture = Texture::from_image(image, kind);
+        self.textures.push(Arc::new(Texture { sampler, ..texture }));
         let ids = (self.textures.len() as u32 - 1, alpha);
         self.texture_ids.insert(key, ids);
         Ok(Some((ids, options.bump_scale)))
@@ -119,17 +125,18 @@ impl TextureLoader {
         referrer: &Referrer<'_>,
         warnings: &mut Warnings,
     ) -> Result<Option<u32>, SceneError> {
-        let Some((file, _)) = find(statement, "map_d", referrer, warnings)? else {
+        let Some((file, options)) = find(statement, "map_d", referrer, warnings)? else {
             return Ok(None);
         };
-        let key = (file, true);
+        let sampler = options.sampler();
+        let key = (file, true, sampler);
         if let Some(&id) = self.alpha_ids.get(&key) {
             return Ok(Some(id));
         }
         let image = decode(&key.0, 4)
             .map_err(|reason| error(&key.0, "map_d", referrer.material, reason))?;
-        self.alpha_maps
-            .push(Arc::new(AlphaMap::from_opacity_image(&image)));
+        let map = AlphaMap::from_opacity_image(&image);
+        self.alpha_maps.push(Arc::new(AlphaMap { sampler, ..map }));
         let id = self.alpha_maps.len() as u32 - 1;
         self.alpha_ids.insert(key, id);
         Ok(Some(id))
@@ -172,6 +179,19 @@ pub(super) struct TextureOptions {
     pub file: String,
     /// `-bm`: the bump multiplier.
     pub bump_scale: f32,
+    /// `-clamp on`: the texture clamps to its edge texels instead of repeating.
+    pub clamp: bool,
+}
+
+impl TextureOptions {
+    /// How the texture is looked up: repeating, or clamped with `-clamp on`;
+    /// bilinear either way.
+    pub fn sampler(&self) -> Sampler {
+        match self.clamp {
+            true => Sampler::CLAMP,
+            false => Sampler::default(),
+        }
+    }
 }
 
 /// The options of the MTL specification and how many arguments each takes (`-o`,
@@ -197,6 +217,7 @@ const OPTION_ARGUMENTS: [(&str, usize); 13] = [
 pub(super) fn parse_statement(statement: &str) -> Result<TextureOptions, String> {
     let mut rest = statement.trim();
     let mut bump_scale = 1.0;
+    let mut clamp = false;
     while rest.starts_with('-') {
         let (option, after) = split_word(rest);
         let count = OPTION_ARGUMENTS
@@ -223,6 +244,13 @@ pub(super) fn parse_statement(statement: &str) -> Result<TextureOptions, String>
                     .filter(|b| b.is_finite())
                     .ok_or_else(|| format!("-bm {word:?} is not a number"))?;
             }
+            if option == "-clamp" {
+                clamp = match word.to_ascii_lowercase().as_str() {
+                    "on" => true,
+                    "off" => false,
+                    _ => return Err(format!("-clamp takes on or off, not {word:?}")),
+                };
+            }
             rest = after;
         }
     }
@@ -232,6 +260,7 @@ pub(super) fn parse_statement(statement: &str) -> Result<TextureOptions, String>
     Ok(TextureOptions {
         file: rest.to_owned(),
         bump_scale,
+        clamp,
     })
 }
 
@@ -288,6 +317,13 @@ mod tests {
             parse_statement("-bm 0.5 -s 1 2 -o 0.1 0.2 0.3 -clamp on my wood.png").unwrap();
         assert_eq!(parsed.file, "my wood.png");
         assert_eq!(parsed.bump_scale, 0.5);
+        assert!(parsed.clamp);
+        assert_eq!(parsed.sampler(), Sampler::CLAMP);
+        let repeating = parse_statement("-clamp off wood.png").unwrap();
+        assert_eq!(repeating.sampler(), Sampler::default());
+        assert!(parse_statement("-clamp maybe wood.png")
+            .unwrap_err()
+            .contains("-clamp"));
         assert_eq!(parse_statement("  a b\\c.jpg ").unwrap().file, "a b\\c.jpg");
         assert_eq!(parse_statement("-s 2 x.png").unwrap().file, "x.png");
         assert_eq!(parse_statement("-mm 0 1 x.png").unwrap().file, "x.png");

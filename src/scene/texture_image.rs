@@ -1,6 +1,6 @@
 //! Texture images as materials read them: colour maps (`map_Kd`, `map_Ks`, `map_Ke`)
-//! and data maps (`bump`, `norm`, `map_Pr`, `map_Pm`, `map_Ns`), looked up with
-//! wrapping and bilinear filtering.
+//! and data maps (`bump`, `norm`, `map_Pr`, `map_Pm`, `map_Ns`), looked up by their
+//! [`Sampler`]: repeating, clamped or mirrored, bilinear or nearest.
 //!
 //! Texels keep the precision of their file. 8-bit images stay 8-bit (3 bytes per RGB
 //! texel, 1 per single-channel one, instead of 12 as `f32` RGB): colour maps are
@@ -14,6 +14,7 @@ use std::sync::LazyLock;
 use glam::{Vec2, Vec3};
 use image::{ColorType, DynamicImage};
 
+use super::texture_sampler::{Filter, Footprint, Sampler};
 use crate::image::srgb_to_linear;
 
 /// How a texture's stored values become the numbers a material reads.
@@ -48,6 +49,9 @@ pub struct Texture {
     pub width: u32,
     pub height: u32,
     pub texels: Texels,
+    /// How lookups wrap and filter (MTL's maps repeat, bilinearly; a glTF texture's
+    /// sampler says).
+    pub sampler: Sampler,
 }
 
 /// sRGB 8-bit code → linear value, for every code.
@@ -74,22 +78,21 @@ fn gray8(t: &[u8], i: usize) -> Vec3 {
     Vec3::splat(f32::from(t[i]) / 255.0)
 }
 
-/// The four texels around a lookup point and their bilinear weights.
-struct Footprint {
-    index: [usize; 4],
-    weight: [f32; 4],
-}
-
-impl Footprint {
-    /// The weighted sum of the four texels, read by `texel(index)`.
-    #[inline(always)]
-    fn filter(&self, texel: impl Fn(usize) -> Vec3) -> Vec3 {
-        let mut sum = Vec3::ZERO;
-        for k in 0..4 {
-            sum += self.weight[k] * texel(self.index[k]);
-        }
-        sum
+/// The bilinear weighted sum of the four texels of `f`, read by `texel(index)`.
+#[inline(always)]
+fn bilinear(f: &Footprint, texel: impl Fn(usize) -> Vec3) -> Vec3 {
+    let (fx, fy) = (f.fx, f.fy);
+    let weight = [
+        (1.0 - fx) * (1.0 - fy),
+        fx * (1.0 - fy),
+        (1.0 - fx) * fy,
+        fx * fy,
+    ];
+    let mut sum = Vec3::ZERO;
+    for (w, &i) in weight.iter().zip(&f.index) {
+        sum += *w * texel(i);
     }
+    sum
 }
 
 impl Texture {
@@ -100,6 +103,7 @@ impl Texture {
             width,
             height,
             texels: Texels::RgbF32(texels),
+            sampler: Sampler::default(),
         }
     }
 
@@ -133,6 +137,7 @@ impl Texture {
             width,
             height,
             texels,
+            sampler: Sampler::default(),
         }
     }
 
@@ -157,26 +162,34 @@ impl Texture {
         }
     }
 
-    /// The value at `uv`, bilinearly filtered; `(0, 0)` is the bottom-left of the image
-    /// (OBJ convention) and the image repeats outside `[0, 1]²`.
+    /// The value at `uv`, wrapped and filtered as the sampler says; `(0, 0)` is the
+    /// bottom-left of the image (OBJ convention). 0 where `uv` is not finite.
     #[inline]
     pub fn sample(&self, uv: Vec2) -> Vec3 {
-        let Some(f) = self.footprint(uv) else {
-            return Vec3::ZERO;
-        };
         // One dispatch on the storage per lookup rather than per texel (`texel`): the
         // match and the table's lazy initialisation check leave the four fetches
         // (staircase, 1 thread: 3-4% faster).
         match &self.texels {
             Texels::Srgb8(t) => {
                 let table = &*SRGB8_TO_LINEAR;
-                f.filter(|i| srgb8(table, t, i))
+                self.lookup(uv, |i| srgb8(table, t, i))
             }
-            Texels::Rgb8(t) => f.filter(|i| rgb8(t, i)),
-            Texels::Gray8(t) => f.filter(|i| gray8(t, i)),
-            Texels::RgbF32(t) => f.filter(|i| t[i]),
-            Texels::GrayF32(t) => f.filter(|i| Vec3::splat(t[i])),
+            Texels::Rgb8(t) => self.lookup(uv, |i| rgb8(t, i)),
+            Texels::Gray8(t) => self.lookup(uv, |i| gray8(t, i)),
+            Texels::RgbF32(t) => self.lookup(uv, |i| t[i]),
+            Texels::GrayF32(t) => self.lookup(uv, |i| Vec3::splat(t[i])),
         }
+    }
+
+    /// The sampler's lookup at `uv` of the texels `texel(index)` reads.
+    #[inline(always)]
+    fn lookup(&self, uv: Vec2, texel: impl Fn(usize) -> Vec3) -> Vec3 {
+        let (w, h, s) = (self.width, self.height, self.sampler);
+        match s.filter {
+            Filter::Bilinear => s.footprint(uv, w, h).map(|f| bilinear(&f, texel)),
+            Filter::Nearest => s.nearest(uv, w, h).map(texel),
+        }
+        .unwrap_or(Vec3::ZERO)
     }
 
     /// The value of a single-channel texture at `uv` (the first channel of others).
@@ -190,40 +203,6 @@ impl Texture {
         let n = self.width as usize * self.height as usize;
         let sum: glam::DVec3 = (0..n).map(|i| self.texel(i).as_dvec3()).sum();
         (sum / n.max(1) as f64).as_vec3()
-    }
-
-    #[inline]
-    fn footprint(&self, uv: Vec2) -> Option<Footprint> {
-        let (w, h) = (self.width as f32, self.height as f32);
-        let x = uv.x.rem_euclid(1.0) * w - 0.5;
-        let y = (1.0 - uv.y.rem_euclid(1.0)) * h - 0.5;
-        if !(x.is_finite() && y.is_finite()) {
-            return None;
-        }
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = (x - x0, y - y0);
-        // `x0` lies in [-1, width - 1] and `x0 + 1` in [0, width] (likewise y), so
-        // only the texels at the seams need the (slow) integer remainder.
-        let wrap = |v: f32, n: u32| {
-            let i = v as i64;
-            if (0..i64::from(n)).contains(&i) {
-                i as usize
-            } else {
-                i.rem_euclid(i64::from(n)) as usize
-            }
-        };
-        let (xa, xb) = (wrap(x0, self.width), wrap(x0 + 1.0, self.width));
-        let (ya, yb) = (wrap(y0, self.height), wrap(y0 + 1.0, self.height));
-        let row = self.width as usize;
-        Some(Footprint {
-            index: [ya * row + xa, ya * row + xb, yb * row + xa, yb * row + xb],
-            weight: [
-                (1.0 - fx) * (1.0 - fy),
-                fx * (1.0 - fy),
-                (1.0 - fx) * fy,
-                fx * fy,
-            ],
-        })
     }
 }
 
@@ -267,6 +246,7 @@ mod tests {
             width: 2,
             height: 1,
             texels: Texels::Gray8(vec![0, 255]),
+            sampler: Sampler::default(),
         };
         assert_eq!(t.sample_scalar(Vec2::new(0.25, 0.5)), 0.0);
         assert_eq!(t.sample_scalar(Vec2::new(0.75, 0.5)), 1.0);

@@ -8,7 +8,7 @@
 //! once per instruction set and chosen at run time ([`trace_blocks`]).
 //!
 //! This is the first stage of the engine: it renders what the Cornell box needs
-//! (untextured Lambert, triangle emitters, a pinhole, `mis`) and says what else a
+//! (untextured Lambert, triangle emitters, a pinhole or orthographic camera, `mis`) and says what else a
 //! scene has that it does not render yet ([`LaneScene::new`]).
 
 // Lane loops index several arrays by the same lane; iterator chains would hide the
@@ -30,7 +30,7 @@ use multiversion::multiversion;
 
 use crate::accel::Accel;
 use crate::film::{FilmTile, Sample};
-use crate::scene::Pinhole;
+use crate::scene::CameraFrame;
 use path::CameraSample;
 
 /// What the engine renders with: the scene's lanes, the accelerator, the camera.
@@ -38,7 +38,7 @@ use path::CameraSample;
 pub struct Wavefront<'a, A: Accel> {
     pub scene: &'a LaneScene,
     pub accel: &'a A,
-    pub camera: Pinhole,
+    pub camera: CameraFrame,
     pub image_width: u32,
     pub max_depth: u32,
     pub seed: u64,

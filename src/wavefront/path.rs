@@ -180,12 +180,18 @@ impl<A: Accel> Wavefront<'_, A> {
         let c = &self.camera;
         let sx = (2.0 * (x.to_f32() + dx)) / c.width - 1.0;
         let sy = 1.0 - (2.0 * (y.to_f32() + dy)) / c.height;
-        let dir = Vec3s::splat(c.forward)
-            + Vec3s::splat(c.right).scale(sx)
-            + Vec3s::splat(c.up).scale(sy);
-        let eye = Vec3s::splat(c.eye);
         let infinity = F32s::splat(f32::INFINITY);
-        set_rays(&mut paths.rays, eye, normalize(dir), F32s::ZERO, infinity);
+        let eye = Vec3s::splat(c.eye);
+        let (origin, dir) = if c.parallel {
+            let offset = Vec3s::splat(c.right).scale(sx) + Vec3s::splat(c.up).scale(sy);
+            (eye + offset, Vec3s::splat(c.forward))
+        } else {
+            let dir = Vec3s::splat(c.forward)
+                + Vec3s::splat(c.right).scale(sx)
+                + Vec3s::splat(c.up).scale(sy);
+            (eye, normalize(dir))
+        };
+        set_rays(&mut paths.rays, origin, dir, F32s::ZERO, infinity);
         self.accel
             .intersect16(&paths.alive.0, &paths.rays, &mut paths.hits, true);
         Fresh {

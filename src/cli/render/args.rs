@@ -46,9 +46,16 @@ pub struct RenderArgs {
     #[arg(short, long, help_heading = OUTPUT)]
     pub output: Option<PathBuf>,
     /// Image width in pixels.
+    ///
+    /// Through a glTF camera that gives an aspect ratio (a perspective camera's
+    /// aspectRatio, an orthographic one's xmag/ymag), the side not given is derived
+    /// from the other and that ratio (--height 512 when neither is given); both given
+    /// keep their ratio and the camera's vertical view.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE), help_heading = OUTPUT)]
     pub width: u32,
     /// Image height in pixels.
+    ///
+    /// See --width for a glTF camera's aspect ratio.
     #[arg(long, default_value_t = 512, value_parser = clap::value_parser!(u32).range(1..=MAX_SIDE), help_heading = OUTPUT)]
     pub height: u32,
     #[command(flatten, next_help_heading = OUTPUT)]
@@ -70,6 +77,10 @@ pub struct RenderArgs {
 
     /// The scene's camera to render through: a scene file's [camera.NAME], or a glTF's
     /// camera by name or index (its first is the default).
+    ///
+    /// In a scene file, a name that is no [camera.NAME] table names a camera of the glTF
+    /// files its [[mesh]] entries place (by name, or by index from 0 in the order
+    /// `ember info` lists them), placed by the entry's transform.
     #[arg(long, value_name = "NAME", help_heading = CAMERA)]
     pub camera: Option<String>,
     /// Camera position, X,Y,Z [default: in front of the scene (+z), framing it].
@@ -86,8 +97,15 @@ pub struct RenderArgs {
     #[arg(long, value_name = "X,Y,Z", value_parser = parse_vec3, allow_hyphen_values = true, default_value = "0,1,0", help_heading = CAMERA)]
     pub up: Vec3,
     /// Vertical field of view in degrees, strictly between 0 and 180.
-    #[arg(long, value_name = "DEGREES", default_value_t = 40.0, value_parser = parse_fov, help_heading = CAMERA)]
+    #[arg(long, value_name = "DEGREES", default_value_t = 40.0, value_parser = parse_fov, overrides_with = "ortho_height", help_heading = CAMERA)]
     pub fov: f32,
+    /// An orthographic camera whose image spans HEIGHT scene units vertically.
+    ///
+    /// Rays run parallel to the view direction, from the plane through --eye that
+    /// faces it; the image's width spans HEIGHT times its aspect ratio. It replaces
+    /// --fov (the later of the two wins); depth of field (--aperture) does not apply.
+    #[arg(long, value_name = "HEIGHT", value_parser = parse_ortho_height, overrides_with = "fov", help_heading = CAMERA)]
+    pub ortho_height: Option<f32>,
     /// Depth of field: the thin lens's radius in scene units [default: 0, a pinhole].
     #[arg(long, value_name = "RADIUS", value_parser = parse_aperture, help_heading = CAMERA)]
     pub aperture: Option<f32>,
@@ -237,7 +255,8 @@ pub struct RenderArgs {
     ///
     /// `scalar`: one path at a time, every feature. `wavefront`: sixteen paths at a
     /// time in SIMD lanes, their rays as Embree packets; for now it renders untextured,
-    /// opaque Lambert scenes lit by their emitters, through a pinhole, with
+    /// opaque Lambert scenes lit by their emitters, through a pinhole or an
+    /// orthographic camera, with
     /// `--integrator mis`, without passes, denoising or guiding.
     #[arg(long, value_enum, default_value_t = EngineArg::Scalar, help_heading = ADVANCED)]
     pub engine: EngineArg,
@@ -289,6 +308,10 @@ fn parse_pixel(s: &str) -> Result<(u32, u32), String> {
 
 fn parse_aperture(s: &str) -> Result<f32, String> {
     parse_f32(s, |v| v >= 0.0, "a lens radius ≥ 0")
+}
+
+fn parse_ortho_height(s: &str) -> Result<f32, String> {
+    parse_f32(s, |v| v > 0.0, "a height > 0 in scene units")
 }
 
 fn parse_focus_distance(s: &str) -> Result<f32, String> {

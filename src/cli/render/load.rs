@@ -59,6 +59,10 @@ pub struct LoadedScene {
     /// Whether ember chose the eye or the point looked at (no --eye or --look-at).
     pub automatic_camera: bool,
     pub camera: Camera,
+    /// The image's width and height: the flags', or completed by the file camera's
+    /// aspect ratio; and the note when the flags' ratio is not the camera's.
+    pub size: (u32, u32),
+    pub size_note: Option<String>,
     /// The lights the scene file places (`ember info`).
     pub placed_lights: Vec<SceneLight>,
     /// The cameras a model file places (a glTF's), and the one rendered through.
@@ -76,20 +80,20 @@ fn camera_settings(
     file: Option<&CameraSettings>,
 ) -> Result<CameraSettings> {
     let (lo, hi) = scene.bounds();
-    let given = |flag: &str| file.is_none() || request.given.contains(&flag);
-    let fov = match file {
-        Some(f) if !given("fov") => f.vfov_degrees,
-        _ => request.fov,
+    let given = |flag: &str| file.is_none() || request.choice.given.contains(&flag);
+    let projection = match file {
+        Some(f) if !given("fov") && !given("ortho-height") => f.projection,
+        _ => request.projection(),
     };
     let framing = match file {
         Some(f) => *f,
-        None => CameraSettings::framing(lo, hi, fov),
+        None => CameraSettings::framing(lo, hi, request.fov),
     };
     let camera_settings = CameraSettings {
         eye: request.eye.unwrap_or(framing.eye),
         look_at: request.look_at.unwrap_or(framing.look_at),
         up: if given("up") { request.up } else { framing.up },
-        vfov_degrees: fov,
+        projection,
         lens: request.lens,
     };
     camera_settings
@@ -97,6 +101,54 @@ fn camera_settings(
         .map_err(anyhow::Error::msg)
         .context("invalid camera")?;
     Ok(camera_settings)
+}
+
+/// The image's size: `--width` and `--height`, the one not given derived from the
+/// other by the aspect ratio of the file's camera `file` when it has one (the height
+/// kept when neither is given); and the note to print when both are given and their
+/// ratio is not the camera's.
+fn image_size(
+    request: &CameraRequest,
+    (width, height): (u32, u32),
+    file: Option<&FileCamera>,
+) -> Result<((u32, u32), Option<String>)> {
+    let Some((camera, aspect)) = file.and_then(|c| Some((c, c.aspect?))) else {
+        return Ok(((width, height), None));
+    };
+    let given = |flag: &str| request.choice.given.contains(&flag);
+    let side = |v: f64| v.round().max(1.0);
+    let size = match (given("width"), given("height")) {
+        (true, true) => {
+            let ratio = width as f32 / height as f32;
+            // Within a pixel of the camera's: what rounding a side leaves.
+            let close = (ratio - aspect).abs() <= aspect / width.min(height) as f32;
+            let note = (!close).then(|| {
+                format!(
+                    "the image's aspect ratio {width}x{height} ({ratio:.4}) is not that of the \
+                     camera {:?} ({aspect:.4}): ember keeps its vertical view and shows more or \
+                     less at the sides",
+                    camera.name
+                )
+            });
+            return Ok(((width, height), note));
+        }
+        (true, false) => (f64::from(width), side(f64::from(width) / f64::from(aspect))),
+        (false, _) => (
+            side(f64::from(height) * f64::from(aspect)),
+            f64::from(height),
+        ),
+    };
+    let most = f64::from(ember::limits::MAX_IMAGE_SIDE);
+    if size.0 > most || size.1 > most {
+        bail!(
+            "the camera {:?}'s aspect ratio {aspect} makes the image {}x{}, larger than ember \
+             renders (at most {most} pixels a side): give --width and --height",
+            camera.name,
+            size.0,
+            size.1
+        );
+    }
+    Ok(((size.0 as u32, size.1 as u32), None))
 }
 
 /// Refuses a scene the wavefront engine does not render yet, in one line.
@@ -109,38 +161,59 @@ fn check_wavefront(plan: &RenderPlan, scene: &Scene) -> Result<()> {
     Ok(())
 }
 
-/// The model file's camera `--camera` names (by name, or by its index), else its first
-/// perspective camera; `None` when it has none.
-fn file_camera<'c>(
-    request: &CameraRequest,
-    cameras: &'c [FileCamera],
-    path: &std::path::Path,
-) -> Result<Option<&'c FileCamera>> {
-    let Some(name) = &request.name else {
-        return Ok(cameras.iter().find(|c| c.settings.is_some()));
+/// The model files' camera the request names (by name, or by its index), else their
+/// first when the request takes it; `None` when they have none.
+fn file_camera<'c>(plan: &RenderPlan, cameras: &'c [FileCamera]) -> Result<Option<&'c FileCamera>> {
+    let choice = &plan.camera.choice;
+    let Some(name) = &choice.name else {
+        return Ok(cameras.first().filter(|_| choice.first));
     };
+    let named: Vec<&FileCamera> = cameras.iter().filter(|c| &c.name == name).collect();
     let by_index = name.parse::<usize>().ok().and_then(|i| cameras.get(i));
-    let Some(camera) = cameras.iter().find(|c| &c.name == name).or(by_index) else {
-        let names: Vec<String> = cameras.iter().map(|c| format!("{:?}", c.name)).collect();
-        let list = if names.is_empty() {
-            "none".to_owned()
-        } else {
-            names.join(", ")
-        };
-        bail!(
-            "--camera {name:?}: {} has no such camera (its cameras, by name or index from 0: {list})",
-            path.display()
-        );
-    };
-    if camera.settings.is_none() {
-        bail!(
-            "--camera {name:?}: the camera {:?} of {} is orthographic; ember renders through \
-             perspective cameras",
-            camera.name,
-            path.display()
-        );
+    match (named.as_slice(), by_index) {
+        ([camera], _) => return Ok(Some(*camera)),
+        ([], Some(camera)) => return Ok(Some(camera)),
+        _ => {}
     }
-    Ok(Some(camera))
+    let list = camera_list(plan, cameras);
+    let what = match named.len() {
+        0 => format!("no such camera (its cameras, by name or index from 0: {list})"),
+        n => {
+            let places: Vec<String> = named.iter().map(|c| place_of(c)).collect();
+            format!(
+                "{n} cameras of that name ({}): give its index (its cameras, in order from \
+                 0: {list})",
+                places.join(", ")
+            )
+        }
+    };
+    match (&plan.scene_file, &choice.named_at) {
+        (Some(file), Some((key, span))) => {
+            let message = format!("the scene names the camera {name:?}, but has {what}");
+            Err(file.error(span.clone(), key, &message).into())
+        }
+        _ => bail!("--camera {name:?}: {} has {what}", plan.scene.display()),
+    }
+}
+
+/// A camera as its list names it: `"NAME"`, and the `[[mesh]]` entry of a scene file's.
+fn place_of(camera: &FileCamera) -> String {
+    match &camera.mesh {
+        Some(mesh) => format!("{:?} of [[mesh]] {mesh:?}", camera.name),
+        None => format!("{:?}", camera.name),
+    }
+}
+
+/// The cameras a `--camera` may name, for its error: a scene file's `[camera.NAME]`
+/// tables, then the model files' cameras.
+fn camera_list(plan: &RenderPlan, cameras: &[FileCamera]) -> String {
+    let tables = plan.scene_file.iter().flat_map(|f| f.cameras.keys());
+    let mut names: Vec<String> = tables.map(|t| format!("[camera.{t}]")).collect();
+    names.extend(cameras.iter().map(place_of));
+    match names.is_empty() {
+        true => "none".to_owned(),
+        false => names.join(", "),
+    }
 }
 
 /// Loads the plan's scene, sets its sky and chooses its camera.
@@ -151,15 +224,7 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         cameras,
         contents,
     } = match &plan.scene_file {
-        Some(file) => {
-            let (scene, report) = file.load_scene(&plan.load)?;
-            LoadedModel {
-                scene,
-                report,
-                cameras: Vec::new(),
-                contents: Vec::new(),
-            }
-        }
+        Some(file) => file.load(&plan.load)?,
         None => load_model(&plan.scene, &plan.load)?,
     };
     // A placed light of any kind lights the scene: no default sky then.
@@ -188,11 +253,12 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         _ => "none".to_owned(),
     };
     let request = &plan.camera;
-    let chosen = file_camera(request, &cameras, &plan.scene)?;
-    let camera_settings =
-        camera_settings(request, &scene, chosen.and_then(|c| c.settings.as_ref()))?;
+    let chosen = file_camera(plan, &cameras)?;
+    let camera_settings = camera_settings(request, &scene, chosen.map(|c| &c.settings))?;
     let file_camera = chosen.map(|c| c.name.clone());
-    let camera = camera_settings.camera(plan.settings.width, plan.settings.height);
+    let size = (plan.settings.width, plan.settings.height);
+    let (size, size_note) = image_size(request, size, chosen)?;
+    let camera = camera_settings.camera(size.0, size.1);
     if plan.settings.engine == Engine::Wavefront {
         check_wavefront(plan, &scene)?;
     }
@@ -205,6 +271,8 @@ pub fn load_scene(plan: &RenderPlan) -> Result<LoadedScene> {
         automatic_camera: file_camera.is_none()
             && (request.eye.is_none() || request.look_at.is_none()),
         camera,
+        size,
+        size_note,
         placed_lights: plan
             .scene_file
             .as_ref()

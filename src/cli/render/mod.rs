@@ -38,14 +38,10 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
         let file = SceneFile::read(&args.scene)?;
         (scene_file::render_args(&file, user)?, Some(file))
     } else {
-        (args, None)
+        ((args, scene_file::model_camera_choice(user)?), None)
     };
-    let mut plan = RenderPlan::from_args(args);
-    match scene_file {
-        // The scene file's camera, chosen by --camera, is in the flags already.
-        Some(_) => plan.camera.name = None,
-        None => plan.camera.given = scene_file::camera_flags_given(user)?,
-    }
+    let mut plan = RenderPlan::from_args(args.0);
+    plan.camera.choice = args.1;
     plan.scene_file = scene_file;
     plan.check()?;
     plan.resume_defaults()?;
@@ -56,6 +52,11 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
     let pool = pool.build().context("cannot start worker threads")?;
     // The loader parses in parallel: on the render's threads, as many as asked for.
     let loaded = pool.install(|| load_scene(&plan))?;
+    // A file camera's aspect ratio may have completed the image's size.
+    if loaded.size != (plan.settings.width, plan.settings.height) {
+        (plan.settings.width, plan.settings.height) = loaded.size;
+        plan.check_size()?;
+    }
     let timeline = Timeline {
         started,
         loaded: started.elapsed(),
@@ -103,14 +104,18 @@ pub fn run(args: RenderArgs, user: &[std::ffi::OsString]) -> Result<ExitCode> {
 /// emitters), and its camera chosen (a scene file's, or the automatic one).
 pub fn load_as_rendered(path: &std::path::Path, strict: bool) -> Result<LoadedScene> {
     let user = [std::ffi::OsString::from(path)];
-    let (args, file) = match SceneFormat::of(path)? {
+    let ((args, choice), file) = match SceneFormat::of(path)? {
         SceneFormat::SceneFile => {
             let file = SceneFile::read(path)?;
             (scene_file::render_args(&file, &user)?, Some(file))
         }
-        SceneFormat::Model => (scene_file::command_line_args(&user)?, None),
+        SceneFormat::Model => {
+            let args = scene_file::command_line_args(&user)?;
+            ((args, scene_file::model_camera_choice(&user)?), None)
+        }
     };
     let mut plan = RenderPlan::from_args(args);
+    plan.camera.choice = choice;
     plan.scene_file = file;
     plan.load.strict = strict;
     load_scene(&plan)

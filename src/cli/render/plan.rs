@@ -22,7 +22,7 @@ use ember::image::Tonemap;
 use ember::integrator::IntegratorKind;
 use ember::light::LightSamplerKind;
 use ember::render::{self, Adaptive, Engine, RenderSettings, ResumedDefaults};
-use ember::scene::{Lens, LoadOptions, SceneFile};
+use ember::scene::{Lens, LoadOptions, Projection, SceneFile};
 
 /// What the camera flags ask for; the defaults depend on the scene's bounds.
 pub struct CameraRequest {
@@ -30,12 +30,36 @@ pub struct CameraRequest {
     pub look_at: Option<Vec3>,
     pub up: Vec3,
     pub fov: f32,
+    /// `--ortho-height`: an orthographic camera instead of `fov`.
+    pub ortho_height: Option<f32>,
     pub lens: Lens,
-    /// `--camera`: a camera of the scene by name or index (a scene file's cameras are
-    /// chosen before this; this names a model file's).
+    pub choice: CameraChoice,
+}
+
+impl CameraRequest {
+    /// The projection the flags ask for.
+    pub fn projection(&self) -> Projection {
+        match self.ortho_height {
+            Some(height) => Projection::Orthographic { height },
+            None => Projection::perspective(self.fov),
+        }
+    }
+}
+
+/// Which camera of the model files (a glTF's, or those of the glTF files a scene file
+/// places) the render goes through, and which flags override it.
+#[derive(Clone, Debug, Default)]
+pub struct CameraChoice {
+    /// By name, or by its index from 0.
     pub name: Option<String>,
-    /// Which of `eye`, `look-at`, `up` and `fov` the command line gave: they override
-    /// a model file's camera.
+    /// Without a name, whether their first camera is used (not when a scene file's
+    /// `[camera.NAME]` table is).
+    pub first: bool,
+    /// The scene file's key that gave `name`, and its place, for errors about it.
+    pub named_at: Option<(String, Range<usize>)>,
+    /// Which of `eye`, `look-at`, `up`, `fov`, `ortho-height` (they override the file's
+    /// camera), `width` and `height` (the file camera's aspect ratio completes them)
+    /// were given.
     pub given: Vec<&'static str>,
 }
 
@@ -132,12 +156,16 @@ impl RenderPlan {
                 look_at: args.look_at,
                 up: args.up,
                 fov: args.fov,
+                ortho_height: args.ortho_height,
                 lens: Lens {
                     aperture_radius: args.aperture.unwrap_or(0.0),
                     focus_distance: args.focus_distance,
                 },
-                name: args.camera,
-                given: Vec::new(),
+                choice: CameraChoice {
+                    name: args.camera,
+                    first: true,
+                    ..CameraChoice::default()
+                },
             },
             background: args.background,
             env: args.env.map(|path| EnvRequest {
@@ -219,12 +247,6 @@ impl RenderPlan {
         self.check_outputs()?;
         env_bytes(ember::limits::MEMORY_LIMIT_ENV)?;
         env_bytes("EMBER_EMBREE_MEMORY_LIMIT")?;
-        if let Some((_, (x, y))) = self.guide_image {
-            let (w, h) = (self.settings.width, self.settings.height);
-            if x >= w || y >= h {
-                bail!("--guide-pixel {x},{y} is outside the {w}x{h} image");
-            }
-        }
         self.check_engine()?;
         // What is there but cannot be read (a folder, a named pipe) is refused by the
         // checkpoint's reader, saying what it is.
@@ -234,12 +256,23 @@ impl RenderPlan {
                 self.checkpoint.display()
             );
         }
+        self.check_size()
+    }
+
+    /// Refuses an image size that `--guide-pixel` is outside of, or that does not fit
+    /// in memory; again once a file camera's aspect ratio has set the size.
+    pub fn check_size(&self) -> Result<()> {
+        let (w, h) = (self.settings.width, self.settings.height);
+        if let Some((_, (x, y))) = self.guide_image {
+            if x >= w || y >= h {
+                bail!("--guide-pixel {x},{y} is outside the {w}x{h} image");
+            }
+        }
         // width × height × spp fits in u64 for every value the flags accept (at most
         // 2^28 × 10^6); checked all the same.
         (self.pixels())
             .checked_mul(u64::from(self.settings.spp))
             .context("width × height × spp overflows")?;
-        let (w, h) = (self.settings.width, self.settings.height);
         // Denoising runs once the render is done, beside the film.
         let denoise = if self.denoise {
             ember::denoise::memory_bytes(w, h)

@@ -11,7 +11,7 @@ use super::plan::{partial_output, RenderPlan};
 use super::Timeline;
 use ember::film::Film;
 use ember::render::{CameraProbe, PassReport, RenderStats};
-use ember::scene::CameraSettings;
+use ember::scene::{CameraSettings, Projection};
 
 /// The scene's warnings, what was loaded, and the camera ember chose.
 pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&CameraProbe>) {
@@ -51,6 +51,9 @@ pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&Ca
         };
         eprintln!("camera ({how}): {}", camera_flags(&loaded.camera_settings));
     }
+    if let Some(note) = &loaded.size_note {
+        eprintln!("note: {note}");
+    }
     if let Some(note) = probe.and_then(|p| camera_note(loaded, p)) {
         eprintln!("note: {note}");
     }
@@ -59,11 +62,14 @@ pub fn report_loading(plan: &RenderPlan, loaded: &LoadedScene, probe: Option<&Ca
 /// The camera as `ember render` flags, ready to edit (numbers as written, exactly).
 pub fn camera_flags(camera: &CameraSettings) -> String {
     let v = |v: glam::Vec3| format!("{},{},{}", v.x, v.y, v.z);
+    let projection = match camera.projection {
+        Projection::Perspective { vfov_degrees } => format!("--fov {vfov_degrees}"),
+        Projection::Orthographic { height } => format!("--ortho-height {height}"),
+    };
     let mut flags = format!(
-        "--eye {} --look-at {} --fov {}",
+        "--eye {} --look-at {} {projection}",
         v(camera.eye),
         v(camera.look_at),
-        camera.vfov_degrees
     );
     if camera.up != glam::Vec3::Y {
         flags += &format!(" --up {}", v(camera.up));
@@ -311,7 +317,8 @@ pub fn summary_json(
             "eye": v(camera.eye),
             "look_at": v(camera.look_at),
             "up": v(camera.up),
-            "fov": camera.vfov_degrees,
+            "fov": camera.projection.vfov_degrees(),
+            "ortho_height": camera.projection.ortho_height(),
             "automatic": loaded.automatic_camera,
             "flags": camera_flags(camera),
         },

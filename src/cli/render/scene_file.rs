@@ -10,6 +10,7 @@
 
 use std::any::TypeId;
 use std::ffi::OsString;
+use std::ops::Range;
 
 use anyhow::Result;
 use clap::error::{ContextKind, ContextValue, ErrorKind};
@@ -17,10 +18,32 @@ use clap::{Arg, ArgMatches, Args, Command, FromArgMatches};
 use glam::Vec3;
 
 use super::args::RenderArgs;
+use super::plan::CameraChoice;
 use ember::scene::{SceneFile, SceneFileError, Setting};
 
-/// Keys of a `[camera.NAME]` table.
-const CAMERA_KEYS: [&str; 6] = ["eye", "look-at", "up", "fov", "aperture", "focus-distance"];
+/// Keys of a `[camera.NAME]` table; `camera` names a camera of the glTF files the scene
+/// places, which the table's other keys override.
+const CAMERA_KEYS: [&str; 8] = [
+    "camera",
+    "eye",
+    "look-at",
+    "up",
+    "fov",
+    "ortho-height",
+    "aperture",
+    "focus-distance",
+];
+/// The flags that override a model file's camera, and the image's size (which its
+/// aspect ratio completes): (flag, clap id).
+const GIVEN: [(&str, &str); 7] = [
+    ("eye", "eye"),
+    ("look-at", "look_at"),
+    ("up", "up"),
+    ("fov", "fov"),
+    ("ortho-height", "ortho_height"),
+    ("width", "width"),
+    ("height", "height"),
+];
 /// Keys of `[environment]`; `env` is a path, relative to the scene file.
 const ENVIRONMENT_KEYS: [&str; 4] = ["background", "env", "env-scale", "env-rotate"];
 /// Flags about one run rather than the scene: the command line's only.
@@ -58,22 +81,28 @@ pub fn command_line_args(user: &[OsString]) -> Result<RenderArgs> {
     Ok(RenderArgs::from_arg_matches(&matches)?)
 }
 
-/// Which of the camera's flags (`eye`, `look-at`, `up`, `fov`) the command line gives
-/// (`user`, the arguments after `render`): they override a model file's camera.
-pub fn camera_flags_given(user: &[OsString]) -> Result<Vec<&'static str>> {
+/// The camera choice of a command line without a scene file (`user`, the arguments
+/// after `render`): `--camera` names a camera of the model file (its first without),
+/// and the flags given override it.
+pub fn model_camera_choice(user: &[OsString]) -> Result<CameraChoice> {
     let argv = std::iter::once(OsString::from("render")).chain(user.iter().cloned());
     let matches = render_command().try_get_matches_from(argv)?;
-    let ids = [
-        ("eye", "eye"),
-        ("look-at", "look_at"),
-        ("up", "up"),
-        ("fov", "fov"),
-    ];
-    Ok(ids
+    Ok(CameraChoice {
+        name: matches.get_one::<String>("camera").cloned(),
+        first: true,
+        named_at: None,
+        given: given_flags(&matches),
+    })
+}
+
+/// Which of [`GIVEN`]'s flags `matches` has from its command line (a scene file's
+/// flags are on it too).
+fn given_flags(matches: &ArgMatches) -> Vec<&'static str> {
+    GIVEN
         .into_iter()
-        .filter(|(_, id)| user_gave(&matches, id))
+        .filter(|(_, id)| user_gave(matches, id))
         .map(|(flag, _)| flag)
-        .collect())
+        .collect()
 }
 
 /// One checked setting: where it was written and the flags it stands for.
@@ -85,8 +114,9 @@ struct Flag<'f> {
 }
 
 /// The render's arguments: the scene file's flags, then `user` (the command line's
-/// arguments after `render`, the scene file among them).
-pub fn render_args(file: &SceneFile, user: &[OsString]) -> Result<RenderArgs> {
+/// arguments after `render`, the scene file among them); and the camera chosen among
+/// those of the glTF files the scene places, if any.
+pub fn render_args(file: &SceneFile, user: &[OsString]) -> Result<(RenderArgs, CameraChoice)> {
     let command = render_command();
     let argv = |flags: &[Flag]| {
         std::iter::once(OsString::from("render"))
@@ -116,12 +146,71 @@ pub fn render_args(file: &SceneFile, user: &[OsString]) -> Result<RenderArgs> {
     if !(user_gave(&given, "env") || user_gave(&given, "background")) {
         used.extend(environment);
     }
-    if let Some(flags) = chosen.and_then(|name| cameras.remove(&name)) {
+    if let Some(flags) = chosen.table().and_then(|name| cameras.remove(name)) {
         used.extend(flags);
     }
-    match command.try_get_matches_from(argv(&used)) {
-        Ok(matches) => Ok(RenderArgs::from_arg_matches(&matches)?),
-        Err(e) => Err(locate(file, &used, e)),
+    let matches = command
+        .try_get_matches_from(argv(&used))
+        .map_err(|e| locate(file, &used, e))?;
+    let args = RenderArgs::from_arg_matches(&matches)?;
+    Ok((args, chosen.choice(file, given_flags(&matches))))
+}
+
+/// The camera of a scene file's render.
+enum Chosen {
+    /// A `[camera.NAME]` table.
+    Table(String),
+    /// A camera of the glTF files the scene places, by name or index, and where the
+    /// file named it (`None`: on the command line).
+    Model {
+        name: String,
+        at: Option<(String, Range<usize>)>,
+    },
+    /// None named: the glTF files' first camera, else the automatic one.
+    Default,
+}
+
+impl Chosen {
+    fn table(&self) -> Option<&str> {
+        match self {
+            Chosen::Table(name) => Some(name),
+            _ => None,
+        }
+    }
+
+    /// What the render asks of the glTF files' cameras, `given` the flags that
+    /// override them: a table's `camera`, the one named, or their first.
+    fn choice(self, file: &SceneFile, given: Vec<&'static str>) -> CameraChoice {
+        let (name, first, named_at) = match self {
+            Chosen::Table(table) => {
+                let key = file.cameras[&table].iter().find(|s| s.key == "camera");
+                match key {
+                    Some(s) => (
+                        model_camera_name(&s.value),
+                        false,
+                        Some((format!("camera.{table}.camera"), s.span.clone())),
+                    ),
+                    None => (None, false, None),
+                }
+            }
+            Chosen::Model { name, at } => (Some(name), false, at),
+            Chosen::Default => (None, true, None),
+        };
+        CameraChoice {
+            name,
+            first,
+            named_at,
+            given,
+        }
+    }
+}
+
+/// A glTF camera's name, or its index as a number.
+fn model_camera_name(value: &toml::Value) -> Option<String> {
+    match value {
+        toml::Value::String(name) => Some(name.clone()),
+        toml::Value::Integer(i) if *i >= 0 => Some(i.to_string()),
+        _ => None,
     }
 }
 
@@ -150,9 +239,14 @@ fn checked<'f>(
                 "unknown key `{name}` (the keys of [{table}] are {})",
                 keys.join(", ")
             )),
-            (None, _) if CAMERA_KEYS.contains(&name) || ENVIRONMENT_KEYS.contains(&name) => Some(
-                format!("`{name}` belongs in a [camera.NAME] table or in [environment]"),
-            ),
+            (None, _)
+                if name != "camera"
+                    && (CAMERA_KEYS.contains(&name) || ENVIRONMENT_KEYS.contains(&name)) =>
+            {
+                Some(format!(
+                    "`{name}` belongs in a [camera.NAME] table or in [environment]"
+                ))
+            }
             (None, _) if RUN_ONLY.contains(&name) => Some(format!(
                 "`{name}` is about one run: give --{name} on the command line"
             )),
@@ -165,9 +259,15 @@ fn checked<'f>(
             return Err(bad(&message));
         }
         let arg = arg.expect("a known key is a flag");
-        let args = if name == "camera" && table == "render" {
+        let args = if name == "camera" {
             // The camera is chosen by name (`chosen_camera`), not repeated as a flag.
-            camera_name(file, setting)?;
+            if table == "render" {
+                camera_name(file, setting)?;
+            } else if model_camera_name(&setting.value).is_none() {
+                let message = "takes the name of a camera of the glTF files the scene \
+                               places, in quotes, or its index from 0";
+                return Err(bad(message));
+            }
             Vec::new()
         } else {
             flag_args(file, setting, arg).map_err(|m| bad(&m))?
@@ -381,55 +481,55 @@ fn locate(file: &SceneFile, used: &[Flag], error: clap::Error) -> anyhow::Error 
     }
 }
 
-/// The name `[render] camera` gives, which must be a string naming a camera table.
-fn camera_name(file: &SceneFile, setting: &Setting) -> Result<String, SceneFileError> {
-    let names: Vec<&str> = file.cameras.keys().map(String::as_str).collect();
-    let list = if names.is_empty() {
-        "none".to_string()
-    } else {
-        names.join(", ")
-    };
+/// The camera `[render] camera` names: a `[camera.NAME]` table, else a camera of the
+/// glTF files the scene places, by name or index (checked once they are loaded).
+fn camera_name(file: &SceneFile, setting: &Setting) -> Result<Chosen, SceneFileError> {
     match &setting.value {
-        toml::Value::String(name) if file.cameras.contains_key(name) => Ok(name.clone()),
-        toml::Value::String(name) => Err(file.error(
-            setting.span.clone(),
-            "render.camera",
-            &format!("no camera {name:?} in the file (its cameras: {list})"),
-        )),
-        _ => Err(file.error(
-            setting.span.clone(),
-            "render.camera",
-            "takes the name of a [camera.NAME] table, in quotes",
-        )),
+        toml::Value::String(name) if file.cameras.contains_key(name) => {
+            Ok(Chosen::Table(name.clone()))
+        }
+        value => match model_camera_name(value) {
+            Some(name) => Ok(Chosen::Model {
+                name,
+                at: Some(("render.camera".to_owned(), setting.span.clone())),
+            }),
+            None => Err(file.error(
+                setting.span.clone(),
+                "render.camera",
+                "takes the name of a [camera.NAME] table or of a glTF camera, in quotes, or a \
+                 glTF camera's index from 0",
+            )),
+        },
     }
 }
 
-/// `--camera NAME`, else `[render] camera = "NAME"`, else the file's only camera.
-fn chosen_camera(file: &SceneFile, given: &ArgMatches) -> Result<Option<String>> {
+/// `--camera NAME`, else `[render] camera = "NAME"`, else the file's only camera table;
+/// a name that is no table names a camera of the glTF files the scene places. Without
+/// tables, the glTF files' first camera (or the automatic one).
+fn chosen_camera(file: &SceneFile, given: &ArgMatches) -> Result<Chosen> {
     let names: Vec<&str> = file.cameras.keys().map(String::as_str).collect();
     if let Some(name) = given.get_one::<String>("camera") {
-        if !file.cameras.contains_key(name) {
-            let what = if names.is_empty() {
-                "none".to_string()
-            } else {
-                names.join(", ")
-            };
-            anyhow::bail!(
-                "--camera {name:?}: {} has no such camera (its cameras: {what})",
-                file.path.display()
-            );
-        }
-        return Ok(Some(name.clone()));
+        return Ok(match file.cameras.contains_key(name) {
+            true => Chosen::Table(name.clone()),
+            false => Chosen::Model {
+                name: name.clone(),
+                at: None,
+            },
+        });
     }
     if let Some(setting) = file.render.iter().find(|s| s.key == "camera") {
-        return Ok(Some(camera_name(file, setting)?));
+        return Ok(camera_name(file, setting)?);
     }
-    if names.len() <= 1 {
-        return Ok(names.first().map(|n| n.to_string()));
+    match names.as_slice() {
+        [] => Ok(Chosen::Default),
+        [only] => Ok(Chosen::Table(only.to_string())),
+        _ => {
+            let message = format!(
+                "the file has cameras {}: choose one with --camera NAME or [render] camera = \
+                 \"NAME\"",
+                names.join(", ")
+            );
+            Err(file.error(0..0, "render.camera", &message).into())
+        }
     }
-    let message = format!(
-        "the file has cameras {}: choose one with --camera NAME or [render] camera = \"NAME\"",
-        names.join(", ")
-    );
-    Err(file.error(0..0, "render.camera", &message).into())
 }

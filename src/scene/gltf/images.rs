@@ -1,6 +1,7 @@
-//! A glTF's images as ember's textures: each image's bytes (a file beside the glTF, a
+//! A glTF's textures as ember's: each image's bytes (a file beside the glTF, a
 //! `data:` URI, or a buffer view of a GLB), decoded once, and from it every texture the
-//! materials ask of it: the base colour (sRGB), the metallic-roughness texture
+//! materials ask of it, each looked up by its glTF texture's sampler (wrap modes and
+//! filter): the base colour (sRGB), the metallic-roughness texture
 //! (linear; its G and B channels read by the material), the normal map (with its scale), the
 //! emission, and the alpha channel as a cut-out. An image file that is absent is a
 //! warning (an error with `--strict`), as OBJ textures are.
@@ -10,6 +11,7 @@ use std::path::Path;
 use std::sync::Arc;
 
 use glam::Vec3;
+use gltf::texture::{MagFilter, MinFilter, WrappingMode};
 use image::{DynamicImage, ImageFormat};
 
 use super::source::{data_uri_mime, read_uri, uri_path, Source};
@@ -17,7 +19,7 @@ use crate::image::ImageFile;
 use crate::scene::asset_paths;
 use crate::scene::texture_files::decode_image;
 use crate::scene::warnings::Warnings;
-use crate::scene::{AlphaMap, SceneError, Texels, Texture, TextureKind};
+use crate::scene::{AlphaMap, Filter, Sampler, SceneError, Texels, Texture, TextureKind, Wrap};
 
 /// What a material makes of an image. Factors are kept as bits so that requests can
 /// be told apart and ordered.
@@ -43,57 +45,103 @@ pub enum Purpose {
 pub struct Made {
     pub textures: Vec<Arc<Texture>>,
     pub alpha_maps: Vec<Arc<AlphaMap>>,
-    /// Per (image, purpose): its texture (or alpha map, for `Alpha`) index; `None`
-    /// where the image is absent, or an alpha channel is opaque everywhere.
+    /// Per (glTF texture, purpose): its texture (or alpha map, for `Alpha`) index;
+    /// `None` where the image is absent, or an alpha channel is opaque everywhere.
     pub ids: BTreeMap<(usize, Purpose), Option<u32>>,
 }
 
-/// Decodes every image requested, once each, and makes the textures asked of it.
-/// `requests` maps each (image, purpose) to the material that asks first (for
-/// messages) and what it uses where the image is absent.
+/// Decodes every image the requested textures show, once each, and makes what each
+/// request asks of it with its texture's sampler. `requests` maps each (glTF texture,
+/// purpose) to the material that asks first (for messages) and what it uses where the
+/// image is absent. Textures of one image and one sampler share what is made.
 pub fn make_textures(
     source: &Source,
     requests: &BTreeMap<(usize, Purpose), (String, String)>,
     warnings: &mut Warnings,
 ) -> Result<Made, SceneError> {
     let mut made = Made::default();
-    let mut images = requests.keys().map(|&(image, _)| image).collect::<Vec<_>>();
-    images.dedup();
-    for index in images {
-        let purposes: Vec<Purpose> = requests
-            .keys()
-            .filter(|(i, _)| *i == index)
-            .map(|&(_, p)| p)
-            .collect();
-        let (material, instead) = &requests[&(index, purposes[0])];
-        let image = match load_image(source, index, material, instead, warnings)? {
-            Some(image) => image,
-            None => {
-                for p in purposes {
-                    made.ids.insert((index, p), None);
-                }
-                continue;
+    let textures: Vec<gltf::Texture<'_>> = source.document.textures().collect();
+    let mut by_image: BTreeMap<usize, Vec<(usize, Purpose)>> = BTreeMap::new();
+    for &(texture, purpose) in requests.keys() {
+        let image = textures[texture].source().index();
+        by_image.entry(image).or_default().push((texture, purpose));
+    }
+    for (index, wanted) in by_image {
+        let (material, instead) = &requests[&wanted[0]];
+        let Some(image) = load_image(source, index, material, instead, warnings)? else {
+            for key in wanted {
+                made.ids.insert(key, None);
             }
+            continue;
         };
-        for purpose in purposes {
-            let id = match purpose {
-                Purpose::Alpha { factor, cutoff } => {
-                    alpha_map(&image, f32::from_bits(factor), cutoff.map(f32::from_bits)).map(
-                        |map| {
-                            made.alpha_maps.push(Arc::new(map));
-                            made.alpha_maps.len() as u32 - 1
-                        },
-                    )
-                }
-                purpose => {
-                    made.textures.push(Arc::new(texture(&image, purpose)));
-                    Some(made.textures.len() as u32 - 1)
-                }
+        let mut shared: BTreeMap<(Purpose, Sampler), Option<u32>> = BTreeMap::new();
+        for (texture, purpose) in wanted {
+            let sampler = sampler(&textures[texture].sampler());
+            let id = match shared.get(&(purpose, sampler)) {
+                Some(&id) => id,
+                None => made.make(&image, purpose, sampler),
             };
-            made.ids.insert((index, purpose), id);
+            shared.insert((purpose, sampler), id);
+            made.ids.insert((texture, purpose), id);
         }
     }
     Ok(made)
+}
+
+impl Made {
+    /// The texture (or alpha map) `purpose` makes of `image`, looked up by `sampler`.
+    fn make(&mut self, image: &DynamicImage, purpose: Purpose, sampler: Sampler) -> Option<u32> {
+        match purpose {
+            Purpose::Alpha { factor, cutoff } => {
+                let cutoff = cutoff.map(f32::from_bits);
+                let map = alpha_map(image, f32::from_bits(factor), cutoff)?;
+                self.alpha_maps.push(Arc::new(AlphaMap { sampler, ..map }));
+                Some(self.alpha_maps.len() as u32 - 1)
+            }
+            purpose => {
+                let texture = texture(image, purpose);
+                self.textures.push(Arc::new(Texture { sampler, ..texture }));
+                Some(self.textures.len() as u32 - 1)
+            }
+        }
+    }
+}
+
+/// A glTF sampler as ember's: its wrap modes, and its filter by [`filter`].
+pub fn sampler(sampler: &gltf::texture::Sampler<'_>) -> Sampler {
+    let wrap = |mode: WrappingMode| match mode {
+        WrappingMode::Repeat => Wrap::Repeat,
+        WrappingMode::ClampToEdge => Wrap::Clamp,
+        WrappingMode::MirroredRepeat => Wrap::Mirror,
+    };
+    Sampler {
+        wrap_s: wrap(sampler.wrap_s()),
+        wrap_t: wrap(sampler.wrap_t()),
+        filter: filter(sampler).0,
+    }
+}
+
+/// A sampler's filter, and whether its `magFilter` and `minFilter` disagree. A lookup
+/// is a point, with no footprint to tell magnification from minification, so one
+/// filter serves both: nearest when both are nearest (mipmaps aside), or the one given
+/// is, as Blender's importer reads them; bilinear otherwise.
+pub fn filter(sampler: &gltf::texture::Sampler<'_>) -> (Filter, bool) {
+    let mag = sampler.mag_filter().map(|m| m == MagFilter::Nearest);
+    let min = sampler.min_filter().map(|m| {
+        matches!(
+            m,
+            MinFilter::Nearest | MinFilter::NearestMipmapNearest | MinFilter::NearestMipmapLinear
+        )
+    });
+    let nearest = match (mag, min) {
+        (Some(mag), Some(min)) => mag && min,
+        (one, other) => one.or(other).unwrap_or(false),
+    };
+    let filter = match nearest {
+        true => Filter::Nearest,
+        false => Filter::Bilinear,
+    };
+    (filter, mag.zip(min).is_some_and(|(a, b)| a != b))
 }
 
 /// The MIME types glTF images come in, as formats.
@@ -196,6 +244,7 @@ fn texture(image: &DynamicImage, purpose: Purpose) -> Texture {
         width,
         height,
         texels,
+        sampler: Sampler::default(),
     }
 }
 
@@ -218,6 +267,7 @@ fn alpha_map(image: &DynamicImage, factor: f32, cutoff: Option<f32>) -> Option<A
         width: rgba.width(),
         height: rgba.height(),
         texels,
+        sampler: Sampler::default(),
     };
     (!map.is_opaque()).then_some(map)
 }

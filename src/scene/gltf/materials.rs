@@ -88,10 +88,10 @@ pub struct Materials {
     pub made: Made,
 }
 
-/// A texture slot of a material: its image, the texture coordinates it names and its
-/// transform.
+/// A texture slot of a material: its glTF texture (image and sampler), the texture
+/// coordinates it names and its transform.
 struct Slot {
-    image: usize,
+    texture: usize,
     uv: UvChoice,
     /// The glTF name of the slot, for messages.
     name: &'static str,
@@ -108,7 +108,7 @@ fn slot(info: &gltf::texture::Info<'_>, name: &'static str) -> Result<Slot, Stri
         Some(t) => Some(texture_transform(t.offset(), t.rotation(), t.scale())?),
     };
     Ok(Slot {
-        image: info.texture().source().index(),
+        texture: info.texture().index(),
         uv: UvChoice {
             set,
             transform: matrix,
@@ -199,8 +199,8 @@ fn material_name(material: &gltf::Material<'_>) -> String {
     }
 }
 
-/// What one material asks for: its constants, and for each map the (image, purpose)
-/// it is made from.
+/// What one material asks for: its constants, and for each map the (glTF texture,
+/// purpose) it is made from.
 struct Plan {
     values: GltfValues,
     base: Option<(usize, Purpose)>,
@@ -251,8 +251,8 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
     };
     let mut slots = Vec::new();
     let mut requests = Vec::new();
-    let mut ask = |image: usize, purpose: Purpose, instead: String| {
-        let key = (image, purpose);
+    let mut ask = |texture: usize, purpose: Purpose, instead: String| {
+        let key = (texture, purpose);
         requests.push((key, instead));
         Some(key)
     };
@@ -265,7 +265,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
             "the material uses its baseColorFactor {} instead",
             rgb(colour)
         );
-        base_key = ask(s.image, Purpose::BaseColour, instead);
+        base_key = ask(s.texture, Purpose::BaseColour, instead);
         slots.push(s);
     }
     if let Some(info) = pbr.metallic_roughness_texture() {
@@ -274,7 +274,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
             "the material uses its metallicFactor {} and roughnessFactor {} instead",
             values.metallic, values.roughness
         );
-        metallic_roughness = ask(s.image, Purpose::MetallicRoughness, instead);
+        metallic_roughness = ask(s.texture, Purpose::MetallicRoughness, instead);
         slots.push(s);
     }
     if let Some(info) = material.emissive_texture() {
@@ -283,12 +283,12 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
             "the material uses its emissiveFactor {} instead",
             rgb(values.emission)
         );
-        emission = ask(s.image, Purpose::Emission, instead);
+        emission = ask(s.texture, Purpose::Emission, instead);
         slots.push(s);
     }
     if let Some(n) = material.normal_texture() {
         let s = Slot {
-            image: n.texture().source().index(),
+            texture: n.texture().index(),
             uv: UvChoice {
                 set: n.tex_coord(),
                 transform: None,
@@ -296,7 +296,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
             name: "normalTexture",
         };
         let instead = "the surface is shaded with its own normals".to_owned();
-        normal = ask(s.image, Purpose::Normal(n.scale().to_bits()), instead);
+        normal = ask(s.texture, Purpose::Normal(n.scale().to_bits()), instead);
         slots.push(s);
     }
     let alpha_factor = base[3].clamp(0.0, 1.0);
@@ -312,13 +312,13 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
             Some(_) => 0.0,
             None => alpha_factor,
         };
-        if let Some((image, _)) = base_key {
+        if let Some((texture, _)) = base_key {
             let purpose = Purpose::Alpha {
                 factor: alpha_factor.to_bits(),
                 cutoff: cutoff.map(f32::to_bits),
             };
             let instead = format!("the material's opacity is {}", values.opacity);
-            alpha = ask(image, purpose, instead);
+            alpha = ask(texture, purpose, instead);
         }
     }
     let first = slots.first();

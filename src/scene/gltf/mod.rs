@@ -274,26 +274,12 @@ fn notes(
              everywhere"
         ));
     }
-    let wraps = document.samplers().any(|s| {
-        use gltf::texture::{MagFilter, WrappingMode};
-        s.wrap_s() != WrappingMode::Repeat
-            || s.wrap_t() != WrappingMode::Repeat
-            || s.mag_filter() == Some(MagFilter::Nearest)
-    });
-    if wraps {
+    let mixed = document.samplers().filter(|s| images::filter(s).1).count();
+    if mixed > 0 {
         warnings.push(format!(
-            "{at}: its samplers ask for clamped or mirrored wrapping or nearest filtering; \
-             ember's textures repeat and filter bilinearly"
-        ));
-    }
-    let orthographic = document
-        .cameras()
-        .filter(|c| matches!(c.projection(), gltf::camera::Projection::Orthographic(_)))
-        .count();
-    if orthographic > 0 {
-        warnings.push(format!(
-            "{at}: {orthographic} orthographic cameras cannot be rendered through (ember's \
-             cameras are perspective)"
+            "{at}: {mixed} samplers filter magnification and minification differently; a \
+             lookup in ember has no footprint to tell them apart, so their textures are \
+             filtered bilinearly"
         ));
     }
 }
