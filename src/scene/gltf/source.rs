@@ -17,9 +17,12 @@ use crate::limits::{check_fits, human_bytes};
 pub const MEMORY_PER_JSON_BYTE: u64 = 16;
 
 /// The extensions ember reads; a file that requires another is refused.
-pub const SUPPORTED_EXTENSIONS: [&str; 4] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
 ];
