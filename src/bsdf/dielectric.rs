@@ -17,7 +17,15 @@ pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
     if sin2_t >= 1.0 {
         return 1.0;
     }
-    let cos_t = (1.0 - sin2_t).sqrt();
+    fresnel_across(cos_i, (1.0 - sin2_t).sqrt(), eta)
+}
+
+/// [`fresnel_dielectric`] of light crossing at cosine `cos_i` on its side and `cos_t`
+/// (Snell's) on the other: the same from either side (`cos_t`, `1/η` give it too),
+/// and well conditioned where `cos_t` is near 0, which recomputing it from `cos_i` is
+/// not.
+#[inline]
+pub fn fresnel_across(cos_i: f32, cos_t: f32, eta: f32) -> f32 {
     let r_s = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
     let r_p = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
     0.5 * (r_s * r_s + r_p * r_p)
@@ -34,6 +42,13 @@ pub fn refract(w: Vec3, n: Vec3, cos_i: f32, eta: f32) -> Option<Vec3> {
     }
     let cos_t = (1.0 - sin2_t).sqrt();
     Some((-w / eta + (cos_i / eta - cos_t) * n).normalize())
+}
+
+/// Whether light arriving at cosine `cos_i` onto relative index `eta` is reflected
+/// whole: where [`refract`] finds no direction.
+#[inline]
+pub fn reflects_totally(cos_i: f32, eta: f32) -> bool {
+    (1.0 - cos_i * cos_i).max(0.0) / (eta * eta) >= 1.0
 }
 
 /// Fresnel reflectance at normal incidence of an interface of index `ior`: 1 for an
@@ -102,7 +117,19 @@ impl Interface {
     /// relative index across the interface is `eta`.
     #[inline]
     pub fn split(&self, cos: f32, eta: f32) -> Split {
-        let exact = fresnel_dielectric(cos, eta);
+        self.split_by(fresnel_dielectric(cos, eta))
+    }
+
+    /// The split of light crossing at cosine `cos_i` on its side and `cos_t` on the
+    /// other (see [`fresnel_across`]).
+    #[inline]
+    pub fn split_across(&self, cos_i: f32, cos_t: f32, eta: f32) -> Split {
+        self.split_by(fresnel_across(cos_i, cos_t, eta))
+    }
+
+    /// The split where the exact Fresnel reflectance is `exact`.
+    #[inline]
+    fn split_by(&self, exact: f32) -> Split {
         if exact >= 1.0 {
             return Split {
                 reflect: Vec3::ONE,

@@ -55,7 +55,7 @@
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
-use super::dielectric::{normal_reflectance, refract, Interface};
+use super::dielectric::{normal_reflectance, reflects_totally, refract, Interface};
 use super::ggx_albedo::{average_albedo, directional_albedo, Albedo};
 use super::{reflect, Ggx, DELTA_ALPHA};
 use crate::color::luminance;
@@ -307,7 +307,9 @@ impl Lobe {
     }
 
     /// A direction `wi` for `wo` with the lobe choice `c` (`eta` as for
-    /// [`choice`](Self::choice)); `None` where the facet drawn reflects all the light.
+    /// [`choice`](Self::choice)), with `wi.z` of the sign its lobe scatters to (a
+    /// reflection above, a refraction below); `None` where it has not (the draw is void).
+    /// A refraction through a facet that reflects all the light is that reflection.
     #[inline]
     pub(super) fn sample(&self, wo: Vec3, u: Vec2, c: Choice, eta: f32) -> Option<Vec3> {
         // One uniform chooses the lobe and, stretched back, draws within it.
@@ -317,10 +319,15 @@ impl Lobe {
         }
         let refracts = c.refract > 0.0 && choose_second(&mut u1, 1.0 - c.refract);
         let h = self.ggx.sample_visible_normal(wo, Vec2::new(u1, u.y));
-        if refracts {
-            refract(wo, h, wo.dot(h).max(0.0), eta)
-        } else {
-            Some(reflect(wo, h))
+        let refracted = match refracts {
+            true => refract(wo, h, wo.dot(h).max(0.0), eta),
+            false => None,
+        };
+        match refracted {
+            Some(wi) => (wi.z < 0.0).then_some(wi),
+            None if c.refract > 0.0 => Some(reflect(wo, h)).filter(|wi| wi.z > 0.0),
+            // Reflection alone, as before transmission existed (`eval` voids `wi.z ≤ 0`).
+            None => Some(reflect(wo, h)),
         }
     }
 
@@ -348,8 +355,13 @@ impl Lobe {
         if self.glass > 0.0 {
             value += self.glass * specular * self.interface.split(v_h, eta).reflect;
         }
-        let pdf = c.glossy * (1.0 - c.refract) * self.ggx.pdf(wo, wi)
-            + (1.0 - c.glossy) * wi.z * FRAC_1_PI;
+        // Refractions through facets that reflect whole are reflections too.
+        let reflecting = match c.refract > 0.0 && reflects_totally(v_h, eta) {
+            true => 1.0,
+            false => 1.0 - c.refract,
+        };
+        let pdf =
+            c.glossy * reflecting * self.ggx.pdf(wo, wi) + (1.0 - c.glossy) * wi.z * FRAC_1_PI;
         (value, pdf)
     }
 
@@ -362,7 +374,7 @@ impl Lobe {
         let Some(r) = self.ggx.refraction(wo, wi, eta) else {
             return (Vec3::ZERO, 0.0);
         };
-        let transmit = self.interface.split(r.cos_o, eta).transmit;
+        let transmit = self.interface.split_across(r.cos_o, r.cos_i, eta).transmit;
         (
             self.glass * r.value * transmit,
             c.glossy * c.refract * r.pdf,

@@ -105,8 +105,10 @@ impl Ggx {
 /// `wo` refracted into `wi` below the surface through one facet (see the module notes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Refraction {
-    /// `wo·h` (> 0), where the facet's Fresnel factor is read.
+    /// `wo·h` (> 0) and `−wi·h` (> 0), the cosines the facet's Fresnel factor is read
+    /// at.
     pub cos_o: f32,
+    pub cos_i: f32,
     /// `f cos θi` without the Fresnel factor.
     pub value: f32,
     /// Density per steradian of `wi` when `wo` is refracted through a visible normal.
@@ -134,6 +136,7 @@ impl Ggx {
         let jacobian = -cos_i / (denominator * denominator);
         Some(Refraction {
             cos_o,
+            cos_i: -cos_i,
             value: d * g1_o * self.g1(below) * cos_o * jacobian / wo.z,
             pdf: g1_o * d * cos_o / wo.z * eta * eta * jacobian,
         })

@@ -228,9 +228,9 @@ pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Re
 /// each with [`metallic_roughness`].
 pub fn read_materials(source: &Source, warnings: &mut Warnings) -> Result<Materials, SceneError> {
     let document = &source.document;
-    let bad = |name: &str, reason: String| SceneError::Material {
-        material: name.to_owned(),
-        reason,
+    let bad = |name: &str, reason: String| SceneError::Gltf {
+        path: source.path.clone(),
+        reason: format!("material {name:?}: {reason}"),
     };
     // First what each material asks of which image, so each image is decoded once.
     let mut requests: BTreeMap<(usize, Purpose), (String, String)> = BTreeMap::new();

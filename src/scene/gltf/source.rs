@@ -33,6 +33,8 @@ const EXTENSIONS_READ_HERE: [&str; 1] = ["KHR_mesh_quantization"];
 
 /// A glTF document with its buffers' bytes and the folder its URIs are relative to.
 pub struct Source {
+    /// The file, for messages.
+    pub path: PathBuf,
     pub document: Document,
     /// One per buffer of the document, each at least its declared `byteLength`.
     pub buffers: Vec<Vec<u8>>,
@@ -74,6 +76,7 @@ pub fn read(path: &Path) -> Result<Source, String> {
     drop(bytes);
     let buffers = read_buffers(&document, &folder, bin)?;
     Ok(Source {
+        path: path.to_owned(),
         document,
         buffers,
         folder,
