@@ -740,3 +740,39 @@ fn hostile_dielectric_values_are_one_error_line() {
         "transmissionTexture": {"index": 9}}});
     refused("texture.gltf", glass(texture).as_bytes(), "invalid glTF");
 }
+
+/// Blender's exporter's glass (tests/data/gltf/glass.glb, written by
+/// scripts/make_gltf_test_scenes.py): Principled BSDF's Transmission Weight and IOR
+/// arrive as the extensions say, without a warning.
+#[test]
+fn blenders_glass_is_read_as_written() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gltf/glass.glb");
+    let loaded = load_gltf(&path, &LoadOptions::default()).expect("loads");
+    assert!(
+        loaded.report.warnings.is_empty(),
+        "{:?}",
+        loaded.report.warnings
+    );
+    let model = |name: &str| {
+        let m = loaded.scene.materials.iter().find(|m| m.name == name);
+        m.unwrap_or_else(|| panic!("no material {name}")).clone()
+    };
+    let read = |name: &str| match model(name).model {
+        Model::MetallicRoughness {
+            ior, transmission, ..
+        } => (ior, transmission),
+        other => panic!("{name}: {other:?}"),
+    };
+    assert_eq!(read("clear-r0"), (1.5, 1.0));
+    assert_eq!(read("half-r0.3"), (1.5, 0.5));
+    assert!((read("water-r0").0 - 1.33).abs() < 1e-6);
+    assert_eq!(read("floor"), (1.5, 0.0));
+    let amber = model("amber-r0.2");
+    assert!(
+        (amber.diffuse - Vec3::new(0.9, 0.6, 0.3))
+            .abs()
+            .max_element()
+            < 1e-6
+    );
+    assert!((amber.alpha() - 0.04).abs() < 1e-6);
+}
