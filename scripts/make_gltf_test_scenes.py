@@ -22,6 +22,12 @@ VENV/bin/pip install bpy numpy`). Writes, each a .glb with its camera:
   with a checker base colour (sRGB), a sphere whose metallic-roughness texture has
   stripes of metal and of roughness, a cube with a normal map of ridges; lit by a sun
   (KHR_lights_punctual directional) and a uniform sky the benchmark gives (0.2).
+- glass.glb: a row of glass spheres (Principled BSDF's Transmission Weight 1, which the
+  exporter writes as KHR_materials_transmission, and its IOR as KHR_materials_ior):
+  clear at roughness 0, 0.2 and 0.5 (index 1.5), clear water (1.33) at roughness 0, a
+  base colour (0.9, 0.6, 0.3) glass at roughness 0.2, and half transmission over that
+  base colour at roughness 0.3; in front of a floor and a back wall of base colour
+  0.5 with a white stripe on each, so that refraction shows; for a uniform sky.
 
 Each file is rebuilt from scratch on every run. The exporter's order of a sphere's
 triangles in its index buffer differs from run to run; the geometry does not.
@@ -73,13 +79,15 @@ def blender_vector(p):
     return mathutils.Vector(blender(p))
 
 
-def material(name, base, metallic=0.0, roughness=1.0):
+def material(name, base, metallic=0.0, roughness=1.0, transmission=0.0, ior=1.5):
     m = bpy.data.materials.new(name)
     m.use_nodes = True
     bsdf = m.node_tree.nodes["Principled BSDF"]
     bsdf.inputs["Base Color"].default_value = (*base, 1.0)
     bsdf.inputs["Metallic"].default_value = metallic
     bsdf.inputs["Roughness"].default_value = roughness
+    bsdf.inputs["Transmission Weight"].default_value = transmission
+    bsdf.inputs["IOR"].default_value = ior
     return m
 
 
@@ -288,6 +296,48 @@ def textured(out):
     export(os.path.join(out, "textured.glb"), texcoords=True)
 
 
+def glass(out):
+    scene = empty_scene()
+    grey = material("floor", (0.5, 0.5, 0.5))
+    white = material("stripe", (0.95, 0.95, 0.95))
+    add_mesh(scene, "floor", lambda: bpy.ops.mesh.primitive_plane_add(size=40.0), grey)
+    wall = add_mesh(
+        scene, "wall", lambda: bpy.ops.mesh.primitive_plane_add(size=40.0), grey, (0, 0, -1.5)
+    )
+    wall.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+    # White stripes on the floor (across the row) and the wall (along it), just above
+    # them, for the balls to refract.
+    stripe = add_mesh(
+        scene, "floor-stripe", lambda: bpy.ops.mesh.primitive_plane_add(size=1.0), white,
+        (0, 0.002, -0.9),
+    )
+    stripe.scale = (8.0, 0.25, 1.0)
+    stripe = add_mesh(
+        scene, "wall-stripe", lambda: bpy.ops.mesh.primitive_plane_add(size=1.0), white,
+        (0, 1.0, -1.498),
+    )
+    stripe.rotation_euler = (math.radians(90.0), 0.0, 0.0)
+    stripe.scale = (8.0, 0.3, 1.0)
+    balls = [
+        ("clear-r0", (1, 1, 1), 0.0, 1.0, 1.5),
+        ("clear-r0.2", (1, 1, 1), 0.2, 1.0, 1.5),
+        ("clear-r0.5", (1, 1, 1), 0.5, 1.0, 1.5),
+        ("water-r0", (1, 1, 1), 0.0, 1.0, 1.33),
+        ("amber-r0.2", (0.9, 0.6, 0.3), 0.2, 1.0, 1.5),
+        ("half-r0.3", (0.9, 0.6, 0.3), 0.3, 0.5, 1.5),
+    ]
+    for i, (name, base, roughness, transmission, ior) in enumerate(balls):
+        m = material(name, base, 0.0, roughness, transmission, ior)
+        x = (i % 3 - 1) * 1.1
+        z = (i // 3 - 0.5) * 1.1
+        make = lambda: bpy.ops.mesh.primitive_uv_sphere_add(
+            segments=32, ring_count=16, radius=0.5
+        )
+        add_mesh(scene, name, make, m, (x, 0.5, z), smooth=True)
+    add_camera(scene, (0.0, 2.2, 4.2), (0.0, 0.4, 0.0), 40.0)
+    export(os.path.join(out, "glass.glb"))
+
+
 def main():
     if len(sys.argv) != 2:
         sys.exit(__doc__)
@@ -297,6 +347,7 @@ def main():
     spheres(out)
     interior(out)
     textured(out)
+    glass(out)
 
 
 if __name__ == "__main__":

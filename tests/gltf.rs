@@ -10,7 +10,7 @@ mod common;
 use std::f64::consts::PI;
 use std::path::{Path, PathBuf};
 
-use common::gltf::{floor_quad, GltfBuilder};
+use common::gltf::{floor_quad, png_data_uri, refused, GltfBuilder};
 use common::{ember_in, with_embree, Built};
 use ember::accel::{Accel, Ray};
 use ember::image::{compare, Image};
@@ -388,14 +388,8 @@ fn the_files_first_camera_is_the_default_and_camera_picks_another() {
 
 /// A 2×1 texture, black on the left and white on the right, as a PNG in a data: URI.
 fn black_white_texture(gltf: &mut GltfBuilder, transform: Option<serde_json::Value>) -> usize {
-    let mut png = Vec::new();
     let image = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb([255 * x as u8; 3]));
-    image::DynamicImage::ImageRgb8(image)
-        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
-        .unwrap();
-    use base64::Engine;
-    let data = base64::engine::general_purpose::STANDARD.encode(&png);
-    gltf.json["images"] = json!([{"uri": format!("data:image/png;base64,{data}")}]);
+    gltf.json["images"] = json!([{"uri": png_data_uri(image)}]);
     gltf.json["textures"] = json!([{"source": 0}]);
     let mut info = json!({"index": 0});
     if let Some(t) = transform {
@@ -540,27 +534,6 @@ fn valid() -> GltfBuilder {
         true,
     );
     gltf
-}
-
-/// Runs `ember render` and `ember info` on `bytes` as `name`: each must fail with one
-/// `error:` line naming the file and containing `says`.
-fn refused(name: &str, bytes: &[u8], says: &str) {
-    let dir = tempfile::tempdir().unwrap();
-    write(dir.path(), name, bytes);
-    for command in [
-        &[
-            "render", name, "--spp", "1", "--width", "4", "--height", "4",
-        ][..],
-        &["info", name],
-    ] {
-        let out = ember_in(command, dir.path());
-        let err = String::from_utf8_lossy(&out.stderr);
-        assert!(!out.status.success(), "{name}: {err}");
-        assert_eq!(err.lines().count(), 1, "{name}: {err}");
-        assert!(err.starts_with(&format!("error: {name}")), "{name}: {err}");
-        assert!(err.contains(says), "{name}: expected {says:?} in {err}");
-        assert!(!err.contains("panicked"), "{err}");
-    }
 }
 
 /// Hostile files: each is one error line naming the file, and no panic.

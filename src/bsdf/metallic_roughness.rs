@@ -1,6 +1,6 @@
 //! The glTF 2.0 metallic-roughness material: the BRDF of the specification's Appendix B
-//! ("BRDF implementation"), with `KHR_materials_ior` and `KHR_materials_specular`, made
-//! energy-conserving.
+//! ("BRDF implementation"), with `KHR_materials_ior`, `KHR_materials_specular` and
+//! `KHR_materials_transmission`, made energy-conserving.
 //!
 //! In the local shading frame, with `h` the half vector of `wo` and `wi`, `v·h = wo·h`
 //! (= `wi·h`), `s = (1 − v·h)⁵` and `S = D G1(wo) G1(wi) / (4 cos θo cos θi)` ember's
@@ -10,7 +10,19 @@
 //! - dielectric: a specular layer `w · F · S` with `F = f0 + (1 − f0) s`,
 //!   `f0 = min(((ior − 1)/(ior + 1))² · specular colour, 1)` (0.04 for the defaults) and
 //!   `w` the specular weight (1 by default), over a Lambert base `b / π`;
-//! - the material: `(1 − metallic) · dielectric + metallic · metal`.
+//! - glass, for the transmission `t`: a rough dielectric interface of index `ior`
+//!   behind the surface ([`Interface`]), GGX reflection and Walter et al.'s refraction
+//!   through the same facets, refraction tinted by `√b`;
+//! - the material: `(1 − metallic) · ((1 − t) · dielectric + t · glass) + metallic · metal`.
+//!
+//! The glass is what glTF's transmission asks (its BTDF "replaces the diffuse base" in
+//! proportion `t`, with the specular layer's roughness, tinted by the base colour), as
+//! Blender's importer and Cycles' Principled BSDF make it: a solid of index `ior`, where
+//! light refracts on the way in and out and is reflected whole beyond the critical
+//! angle inside, rather than the specification's thin wall that only lets light
+//! through (`KHR_materials_volume`, which tells the two apart, is not read). Its
+//! Fresnel factor is exact, not Schlick's, so that a smooth glass is ember's smooth
+//! glass (below [`DELTA_ALPHA`] a pure glass is that delta lobe).
 //!
 //! The base is where ember departs from the letter of Appendix B (which is
 //! non-normative). Its `fresnel_mix` weighs the base by `1 − w max F(v·h)`, but `v·h`
@@ -30,15 +42,20 @@
 //! reciprocally: `f_ms = F_ms (1 − E(μo)) (1 − E(μi)) / (π (1 − E_avg))`, whose albedo is
 //! exactly the missing `1 − E(μo)`, coloured by `F_ms = F_avg² E_avg / (1 − F_avg (1 −
 //! E_avg))` for each layer's hemispherical mean Fresnel `F_avg` (Schlick's: `f0 + (1 −
-//! f0)/21`). The albedos `E` come from a table ([`ggx_albedo`](super::ggx_albedo)).
+//! f0)/21`). The albedos `E` come from a table ([`ggx_albedo`](super::ggx_albedo)). The
+//! glass has no such lobe (its albedo depends on the index too): a clear glass keeps
+//! less than all the light at high roughness (tests/transmission.rs states how much).
 //!
 //! Sampling picks GGX's visible normals or a cosine direction (for the base and the
 //! compensation lobe) with a probability from their albedos at `wo`, so the density is
-//! the mixture of the two.
+//! the mixture of the two; through a visible normal it refracts rather than reflects
+//! with a probability from the glass's Fresnel split at `wo` (`sample` has two
+//! uniforms, so the choice is made before the normal is drawn, not per facet).
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
 
+use super::dielectric::{normal_reflectance, reflects_totally, refract, Interface};
 use super::ggx_albedo::{average_albedo, directional_albedo, Albedo};
 use super::{reflect, Ggx, DELTA_ALPHA};
 use crate::color::luminance;
@@ -62,6 +79,9 @@ pub struct MetallicRoughness {
     /// `KHR_materials_specular`'s `specularColorFactor` (× texture): scales the
     /// dielectric's `F0` (white by default).
     pub specular_colour: Vec3,
+    /// `KHR_materials_transmission`'s `transmissionFactor` (× texture), in [0, 1]: the
+    /// share of the dielectric that is glass rather than the diffuse base (0 by default).
+    pub transmission: f32,
 }
 
 impl MetallicRoughness {
@@ -74,14 +94,38 @@ impl MetallicRoughness {
             ior: 1.5,
             specular: 1.0,
             specular_colour: Vec3::ONE,
+            transmission: 0.0,
         }
     }
 
-    /// A smooth pure metal: a mirror, the only case without a GGX lobe.
+    /// A smooth pure metal: a mirror, one of the two cases without a GGX lobe.
     pub(super) fn is_mirror(&self) -> bool {
         self.metallic >= 1.0 && self.alpha < DELTA_ALPHA
     }
+
+    /// A smooth pure glass: ember's smooth dielectric, the other case without a GGX
+    /// lobe.
+    pub(super) fn is_smooth_glass(&self) -> bool {
+        self.transmission >= 1.0
+            && self.metallic <= 0.0
+            && self.alpha < DELTA_ALPHA
+            && self.ior.is_finite()
+    }
+
+    /// The glass's interface: index `ior`, refraction tinted by `√(base colour)`.
+    pub(super) fn interface(&self) -> Interface {
+        Interface {
+            ior: self.ior,
+            specular: self.specular,
+            specular_colour: self.specular_colour,
+            tint: self.base_colour.max(Vec3::ZERO).map(f32::sqrt),
+        }
+    }
 }
+
+/// The least index the rough glass refracts with: nearer 1 its BTDF narrows to a
+/// straight pass-through (at 1, a delta), which no density could follow.
+const MIN_ROUGH_IOR: f32 = 1.01;
 
 /// Schlick's Fresnel `f0 + (1 − f0) (1 − cos)⁵`.
 #[inline]
@@ -103,8 +147,17 @@ fn mean_fresnel(f0: Vec3) -> Vec3 {
     f0 + (Vec3::ONE - f0) / 21.0
 }
 
-/// The metallic-roughness lobes in the local frame (z = the shading normal, both
-/// directions above the surface).
+/// The probabilities with which [`Lobe::sample`] draws through GGX's visible normals
+/// rather than from the cosine lobe, and refracts rather than reflects through the
+/// normal drawn.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Choice {
+    glossy: f32,
+    refract: f32,
+}
+
+/// The metallic-roughness lobes in the local frame (z = the shading normal, `wo` above
+/// the surface; `wi` above it, or below it when the glass refracts).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct Lobe {
     base: Vec3,
@@ -115,8 +168,16 @@ pub(super) struct Lobe {
     f0_max: f32,
     /// The weight of the dielectric's specular layer.
     specular: f32,
-    /// Kulla–Conty's `F_ms`, mixed over dielectric and metal, and `1 / (π (1 − E_avg))`:
-    /// the compensation lobe is their product times `(1 − E(μo)) (1 − E(μi))`.
+    /// `1 − t`: the share of the dielectric that is opaque (layer over diffuse base).
+    opaque: f32,
+    /// `(1 − metallic) (1 − t)`: the diffuse base's weight in the material.
+    diffuse_weight: f32,
+    /// `(1 − metallic) t`: the glass's weight in the material (0: none).
+    glass: f32,
+    interface: Interface,
+    /// Kulla–Conty's `F_ms`, mixed over the opaque dielectric and the metal, and
+    /// `1 / (π (1 − E_avg))`: the compensation lobe is their product times
+    /// `(1 − E(μo)) (1 − E(μi))`.
     multiple: Vec3,
     multiple_norm: f32,
     /// The dielectric layer's `F_ms` in its largest channel.
@@ -129,8 +190,7 @@ pub(super) struct Lobe {
 impl Lobe {
     pub(super) fn new(m: &MetallicRoughness) -> Lobe {
         let alpha = m.alpha.max(DELTA_ALPHA);
-        let f = (m.ior - 1.0) / (m.ior + 1.0);
-        let f0 = (f * f * m.specular_colour).min(Vec3::ONE);
+        let f0 = (normal_reflectance(m.ior) * m.specular_colour).min(Vec3::ONE);
         let mean = average_albedo(alpha);
         // Smooth surfaces lose nothing worth a lobe, and 1 − E_avg would be noise.
         let (multiple_norm, dielectric, metal) = if 1.0 - mean.one < 1e-4 {
@@ -141,6 +201,17 @@ impl Lobe {
             let metal = ms(mean_fresnel(m.base_colour));
             (FRAC_1_PI / (1.0 - mean.one), dielectric, metal)
         };
+        // Nothing refracts into an infinite index.
+        let transmission = if m.ior.is_finite() {
+            m.transmission.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let opaque = 1.0 - transmission;
+        let interface = Interface {
+            ior: m.ior.max(MIN_ROUGH_IOR),
+            ..m.interface()
+        };
         let mut lobe = Lobe {
             base: m.base_colour,
             metallic: m.metallic,
@@ -148,7 +219,11 @@ impl Lobe {
             f0,
             f0_max: f0.max_element(),
             specular: m.specular,
-            multiple: dielectric.lerp(metal, m.metallic),
+            opaque,
+            diffuse_weight: (1.0 - m.metallic) * opaque,
+            glass: (1.0 - m.metallic) * transmission,
+            interface,
+            multiple: (dielectric * opaque).lerp(metal, m.metallic),
             multiple_norm,
             multiple_dielectric: dielectric.max_element(),
             diffuse_norm: 0.0,
@@ -156,6 +231,23 @@ impl Lobe {
         let kept = 1.0 - lobe.layer_albedo(mean);
         lobe.diffuse_norm = if kept > 1e-4 { FRAC_1_PI / kept } else { 0.0 };
         lobe
+    }
+
+    /// Whether any light is refracted.
+    #[inline]
+    pub(super) fn transmits(&self) -> bool {
+        self.glass > 0.0
+    }
+
+    /// The relative index light crosses from the side of `wo` into the glass: `ior` from
+    /// the front (the side of the normal), `1/ior` from behind.
+    #[inline]
+    pub(super) fn eta(&self, behind: bool) -> f32 {
+        if behind {
+            1.0 / self.interface.ior
+        } else {
+            self.interface.ior
+        }
     }
 
     /// What the dielectric's specular layer (compensation included) reflects of light
@@ -167,46 +259,85 @@ impl Lobe {
     }
 
     /// The reflectance a denoiser is given: the base colour, plus the dielectric's
-    /// specular reflection at normal incidence.
+    /// specular reflection at normal incidence (the glass: the base colour).
     pub(super) fn albedo(&self) -> Vec3 {
-        let dielectric = self.base * (1.0 - self.specular * self.f0_max) + self.specular * self.f0;
+        let mut dielectric =
+            self.base * (1.0 - self.specular * self.f0_max) + self.specular * self.f0;
+        if self.glass > 0.0 {
+            dielectric = dielectric * self.opaque + self.base * (1.0 - self.opaque);
+        }
         dielectric.lerp(self.base, self.metallic).min(Vec3::ONE)
     }
 
-    /// The probability of drawing from GGX rather than the cosine lobe: the share of
-    /// the specular layers in the albedo at `wo`, the rest being cosine-shaped (the
-    /// diffuse base and the compensation).
+    /// The lobe choice for `wo`, light crossing the relative index `eta` into the
+    /// glass. GGX is drawn with the share of the specular layers and the glass in the
+    /// albedo at `wo`, the rest being cosine-shaped (the diffuse base and the
+    /// compensation); it refracts with the glass's transmitted share.
     #[inline]
-    pub(super) fn glossy_probability(&self, wo: Vec3) -> f32 {
+    pub(super) fn choice(&self, wo: Vec3, eta: f32) -> Choice {
         let a = directional_albedo(wo.z, self.ggx.alpha());
-        let dielectric = self.specular * a.schlick(self.f0);
-        let glossy = luminance(dielectric.lerp(a.schlick(self.base), self.metallic));
-        let diffuse = (1.0 - self.metallic) * luminance(self.base) * (1.0 - self.layer_albedo(a));
+        let dielectric = self.specular * a.schlick(self.f0) * self.opaque;
+        let reflected = luminance(dielectric.lerp(a.schlick(self.base), self.metallic));
+        let diffuse = self.diffuse_weight * luminance(self.base) * (1.0 - self.layer_albedo(a));
         let cosine_shaped = diffuse + luminance(self.multiple) * (1.0 - a.one);
+        let (glossy, refract) = if self.glass > 0.0 {
+            let split = self.interface.split(wo.z, eta);
+            let weight = self.glass * a.one;
+            let refracted = weight * luminance(split.transmit);
+            let glossy = reflected + weight * luminance(split.reflect) + refracted;
+            // Facets refract where the mean surface reflects all (and the reverse): each
+            // keeps a twentieth of the draws, so the density covers both.
+            let share = if glossy > 0.0 {
+                refracted / glossy
+            } else {
+                0.5
+            };
+            (glossy, share.clamp(0.05, 0.95))
+        } else {
+            (reflected, 0.0)
+        };
         // A lobe carrying under 1% is drawn by the other alone (GGX covers the
         // hemisphere); otherwise each keeps a tenth of the draws, whatever the estimate.
-        if cosine_shaped <= 0.01 * glossy {
+        let glossy = if cosine_shaped <= 0.01 * glossy {
             1.0
         } else {
             (glossy / (glossy + cosine_shaped)).clamp(0.1, 0.9)
-        }
+        };
+        Choice { glossy, refract }
     }
 
-    /// A direction `wi` for `wo`, given the lobe choice's probability.
+    /// A direction `wi` for `wo` with the lobe choice `c` (`eta` as for
+    /// [`choice`](Self::choice)), with `wi.z` of the sign its lobe scatters to (a
+    /// reflection above, a refraction below); `None` where it has not (the draw is void).
+    /// A refraction through a facet that reflects all the light is that reflection.
     #[inline]
-    pub(super) fn sample(&self, wo: Vec3, u: Vec2, glossy_probability: f32) -> Vec3 {
+    pub(super) fn sample(&self, wo: Vec3, u: Vec2, c: Choice, eta: f32) -> Option<Vec3> {
         // One uniform chooses the lobe and, stretched back, draws within it.
         let mut u1 = u.x;
-        if choose_second(&mut u1, glossy_probability) {
-            cosine_hemisphere(u1, u.y)
-        } else {
-            reflect(wo, self.ggx.sample_visible_normal(wo, Vec2::new(u1, u.y)))
+        if choose_second(&mut u1, c.glossy) {
+            return Some(cosine_hemisphere(u1, u.y));
+        }
+        let refracts = c.refract > 0.0 && choose_second(&mut u1, 1.0 - c.refract);
+        let h = self.ggx.sample_visible_normal(wo, Vec2::new(u1, u.y));
+        let refracted = match refracts {
+            true => refract(wo, h, wo.dot(h).max(0.0), eta),
+            false => None,
+        };
+        match refracted {
+            Some(wi) => (wi.z < 0.0).then_some(wi),
+            None if c.refract > 0.0 => Some(reflect(wo, h)).filter(|wi| wi.z > 0.0),
+            // Reflection alone, as before transmission existed (`eval` voids `wi.z ≤ 0`).
+            None => Some(reflect(wo, h)),
         }
     }
 
-    /// `f(wo, wi) cos θi` and the density of `wi` for the lobe choice's probability.
+    /// `f(wo, wi) |cos θi|` and the density of `wi` for the lobe choice `c` (`eta` as
+    /// for [`choice`](Self::choice)).
     #[inline]
-    pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3, glossy_probability: f32) -> (Vec3, f32) {
+    pub(super) fn eval_pdf(&self, wo: Vec3, wi: Vec3, c: Choice, eta: f32) -> (Vec3, f32) {
+        if wi.z < 0.0 {
+            return self.eval_pdf_refracted(wo, wi, c, eta);
+        }
         let alpha = self.ggx.alpha();
         let (a_o, a_i) = (
             directional_albedo(wo.z, alpha),
@@ -219,10 +350,34 @@ impl Lobe {
             + self.specular * specular * schlick(self.f0, v_h);
         let metal = specular * schlick(self.base, v_h);
         let lost = (1.0 - a_o.one) * (1.0 - a_i.one);
-        let value = dielectric.lerp(metal, self.metallic)
+        let mut value = (dielectric * self.opaque).lerp(metal, self.metallic)
             + self.multiple * (lost * self.multiple_norm * wi.z);
-        let pdf = glossy_probability * self.ggx.pdf(wo, wi)
-            + (1.0 - glossy_probability) * wi.z * FRAC_1_PI;
+        if self.glass > 0.0 {
+            value += self.glass * specular * self.interface.split(v_h, eta).reflect;
+        }
+        // Refractions through facets that reflect whole are reflections too.
+        let reflecting = match c.refract > 0.0 && reflects_totally(v_h, eta) {
+            true => 1.0,
+            false => 1.0 - c.refract,
+        };
+        let pdf =
+            c.glossy * reflecting * self.ggx.pdf(wo, wi) + (1.0 - c.glossy) * wi.z * FRAC_1_PI;
         (value, pdf)
+    }
+
+    /// [`eval_pdf`](Self::eval_pdf) of a `wi` below the surface: the glass's refraction.
+    #[inline]
+    fn eval_pdf_refracted(&self, wo: Vec3, wi: Vec3, c: Choice, eta: f32) -> (Vec3, f32) {
+        if self.glass <= 0.0 {
+            return (Vec3::ZERO, 0.0);
+        }
+        let Some(r) = self.ggx.refraction(wo, wi, eta) else {
+            return (Vec3::ZERO, 0.0);
+        };
+        let transmit = self.interface.split_across(r.cos_o, r.cos_i, eta).transmit;
+        (
+            self.glass * r.value * transmit,
+            c.glossy * c.refract * r.pdf,
+        )
     }
 }

@@ -2,7 +2,7 @@
 //! masking-shadowing, sampled through its visible normals.
 //!
 //! All directions are in the local shading frame (z = the normal) and point away from
-//! the surface. Reflection only: `h` is the half vector of `wo` and `wi`.
+//! the surface, `wo` above it. In reflection `h` is the half vector of `wo` and `wi`.
 //!
 //! - `D(h) = α² / (π (α² cos²θh + sin²θh)²)` (written with sin² rather than
 //!   `(α² − 1) cos² + 1`, which cancels catastrophically for small α);
@@ -11,6 +11,18 @@
 //!   ("Sampling Visible GGX Normals with Spherical Caps", 2023), with density
 //!   `D_wo(h) = G1(wo) max(0, wo·h) D(h) / cos θo`; reflecting `wo` about `h` turns it
 //!   into `D_wo(h) / (4 wo·h) = G1(wo) D(h) / (4 cos θo)` per steradian of `wi`.
+//!
+//! Refraction into the side below, of relative index `η` (Walter, Marschner, Li and
+//! Torrance, "Microfacet Models for Refraction through Rough Surfaces", 2007): the facet
+//! is the generalised half vector `h ∝ ±(wo + η wi)` (turned up), both directions must
+//! face it from their own sides (`wo·h > 0 > wi·h`), and
+//!
+//! - `f cos θi = |wo·h| |wi·h| D G1(wo) G1(wi) / (cos θo (wo·h + η wi·h)²)` without the
+//!   Fresnel factor, in the radiance convention: across a smooth interface it carries
+//!   `(1 − F) / η²`, the `1/η²` of radiance squeezed into a denser medium, as ember's
+//!   smooth glass does;
+//! - refracting `wo` through a visible normal draws `wi` with density
+//!   `D_wo(h) |dh/dwi| = G1(wo) D(h) (wo·h) / cos θo · η² |wi·h| / (wo·h + η wi·h)²`.
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -87,6 +99,47 @@ impl Ggx {
         }
         let h = (wo + wi).normalize();
         self.g1(wo) * self.d(h) / (4.0 * wo.z)
+    }
+}
+
+/// `wo` refracted into `wi` below the surface through one facet (see the module notes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Refraction {
+    /// `wo·h` (> 0) and `−wi·h` (> 0), the cosines the facet's Fresnel factor is read
+    /// at.
+    pub cos_o: f32,
+    pub cos_i: f32,
+    /// `f cos θi` without the Fresnel factor.
+    pub value: f32,
+    /// Density per steradian of `wi` when `wo` is refracted through a visible normal.
+    pub pdf: f32,
+}
+
+impl Ggx {
+    /// The refraction of `wo` (above) into `wi` (below) across relative index `eta`;
+    /// `None` where no facet refracts one into the other.
+    #[inline]
+    pub fn refraction(&self, wo: Vec3, wi: Vec3, eta: f32) -> Option<Refraction> {
+        if wo.z <= 0.0 || wi.z >= 0.0 {
+            return None;
+        }
+        let h = (wo + eta * wi).try_normalize()?;
+        let h = if h.z < 0.0 { -h } else { h };
+        let (cos_o, cos_i) = (wo.dot(h), wi.dot(h));
+        let denominator = cos_o + eta * cos_i;
+        if cos_o <= 0.0 || cos_i >= 0.0 || denominator == 0.0 {
+            return None;
+        }
+        let below = Vec3::new(wi.x, wi.y, -wi.z);
+        let d = self.d(h);
+        let g1_o = self.g1(wo);
+        let jacobian = -cos_i / (denominator * denominator);
+        Some(Refraction {
+            cos_o,
+            cos_i: -cos_i,
+            value: d * g1_o * self.g1(below) * cos_o * jacobian / wo.z,
+            pdf: g1_o * d * cos_o / wo.z * eta * eta * jacobian,
+        })
     }
 }
 

@@ -18,6 +18,13 @@
 //! `eval` and `pdf` are 0 for any given pair of directions, and `sample` returns the
 //! weight as `value / pdf`, where `pdf` is the probability of the discrete choice.
 //! A BSDF is either wholly delta or has no delta part (see [`Bsdf::glossy`]).
+//!
+//! Light that crosses the surface (glass, smooth or rough) is radiance squeezed into a
+//! denser medium or spread out of it: refraction carries a factor `1/η²` for the
+//! relative index `η` crossed, and [`BsdfSample::eta`] says which, so that the
+//! integrator can take it out again where only the path's weight matters (Russian
+//! roulette). So `f(wo, wi) / η_o² = f(wi, wo) / η_i²` with `η_o`, `η_i` the indices on
+//! the sides of `wo` and `wi`.
 
 mod dielectric;
 mod ggx_albedo;
@@ -25,10 +32,10 @@ mod ggx_albedo_table;
 mod metallic_roughness;
 mod microfacet;
 
-pub use dielectric::{fresnel_dielectric, refract};
+pub use dielectric::{fresnel_dielectric, refract, Interface, Split};
 pub use ggx_albedo::{average_albedo, directional_albedo, Albedo};
 pub use metallic_roughness::{schlick, MetallicRoughness};
-pub use microfacet::{reflect, Ggx};
+pub use microfacet::{reflect, Ggx, Refraction};
 
 use glam::{Vec2, Vec3};
 use std::f32::consts::FRAC_1_PI;
@@ -36,8 +43,9 @@ use std::f32::consts::FRAC_1_PI;
 use crate::color::luminance;
 use crate::sampling::{choose_second, cosine_hemisphere, Onb};
 
-/// Below this roughness a GGX conductor is treated as a perfect mirror (a delta lobe):
-/// its lobe is narrower than anything sampling could resolve.
+/// Below this roughness a GGX conductor is treated as a perfect mirror, and a pure glass
+/// as smooth glass (delta lobes): their lobes are narrower than anything sampling
+/// could resolve.
 pub const DELTA_ALPHA: f32 = 1e-3;
 
 /// A direction drawn from a [`Bsdf`].
@@ -80,10 +88,12 @@ enum Lobes {
     /// normal incidence to `grazing` (equal for a constant reflectance). Two-sided.
     Mirror { normal: Vec3, grazing: Vec3 },
     /// The glTF metallic-roughness material, never a delta (see
-    /// [`MetallicRoughness`]). Two-sided.
+    /// [`MetallicRoughness`]). Two-sided for reflection; where it transmits, its glass
+    /// has index `ior` on the side opposite the geometric normal.
     MetallicRoughness(metallic_roughness::Lobe),
-    /// Smooth glass of index `ior` inside (the side opposite the normal), 1 outside.
-    Dielectric { ior: f32 },
+    /// Smooth glass: the interface's index inside (the side opposite the normal), 1
+    /// outside.
+    Dielectric(Interface),
 }
 
 /// The BSDF at one surface point: its lobes in the frame of the shading normal.
@@ -137,18 +147,21 @@ impl Bsdf {
 
     /// Smooth glass of index `ior` on the side opposite the normals.
     pub fn dielectric(ior: f32, ns: Vec3, ng: Vec3) -> Bsdf {
-        Bsdf::with_lobes(Lobes::Dielectric { ior }, ns, ng)
+        Bsdf::with_lobes(Lobes::Dielectric(Interface::clear(ior)), ns, ng)
     }
 
     /// The glTF metallic-roughness material `m`. A pure metal narrower than
-    /// [`DELTA_ALPHA`] is a mirror with Schlick's Fresnel; any other stays GGX at α ≥
-    /// [`DELTA_ALPHA`], for the reason [`glossy`](Self::glossy) gives.
+    /// [`DELTA_ALPHA`] is a mirror with Schlick's Fresnel, a pure glass that narrow is
+    /// smooth glass; any other stays GGX at α ≥ [`DELTA_ALPHA`], for the reason
+    /// [`glossy`](Self::glossy) gives.
     pub fn metallic_roughness(m: &MetallicRoughness, ns: Vec3, ng: Vec3) -> Bsdf {
         let lobes = if m.is_mirror() {
             Lobes::Mirror {
                 normal: m.base_colour,
                 grazing: Vec3::ONE,
             }
+        } else if m.is_smooth_glass() {
+            Lobes::Dielectric(m.interface())
         } else {
             Lobes::MetallicRoughness(metallic_roughness::Lobe::new(m))
         };
@@ -173,15 +186,42 @@ impl Bsdf {
         )
     }
 
+    /// Whether some light crosses the surface (the side opposite `wo` then receives
+    /// light too, which light sampling must not cull).
+    #[inline]
+    pub fn transmits(&self) -> bool {
+        match self.lobes {
+            Lobes::Dielectric(_) => true,
+            Lobes::MetallicRoughness(lobe) => lobe.transmits(),
+            Lobes::Reflective { .. } | Lobes::Mirror { .. } => false,
+        }
+    }
+
+    /// The relative index `η_t / η_i` crossed from `wo` to `wi`: 1 unless they are on
+    /// opposite sides of a surface that transmits (what [`BsdfSample::eta`] says of a
+    /// sample).
+    #[inline]
+    pub fn eta(&self, wo: Vec3, wi: Vec3) -> f32 {
+        if self.same_side(wo, wi) {
+            return 1.0;
+        }
+        match self.lobes {
+            Lobes::MetallicRoughness(lobe) if lobe.transmits() => lobe.eta(wo.dot(self.ng) < 0.0),
+            Lobes::Dielectric(glass) if wo.dot(self.frame.w) > 0.0 => glass.ior,
+            Lobes::Dielectric(glass) => 1.0 / glass.ior,
+            _ => 1.0,
+        }
+    }
+
     /// The reflectance a denoiser is given as albedo: diffuse plus specular colour,
-    /// at most 1 (a delta lobe reflects or transmits everything: 1).
+    /// at most 1 (a delta lobe reflects or transmits everything: 1, or its tint).
     pub fn albedo(&self) -> Vec3 {
         match self.lobes {
             Lobes::Reflective {
                 diffuse, specular, ..
             } => (diffuse + specular).min(Vec3::ONE),
             Lobes::Mirror { normal, .. } => normal,
-            Lobes::Dielectric { .. } => Vec3::ONE,
+            Lobes::Dielectric(glass) => glass.tint * glass.tint,
             Lobes::MetallicRoughness(lobe) => lobe.albedo(),
         }
     }
@@ -209,8 +249,14 @@ impl Bsdf {
             }
             Lobes::MetallicRoughness(lobe) => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
-                let p = lobe.glossy_probability(wo_local);
-                self.non_delta_sample(wo, self.world(lobe.sample(wo_local, u, p), flip))
+                let eta = lobe.eta(flip);
+                let wi_local = lobe.sample(wo_local, u, lobe.choice(wo_local, eta), eta)?;
+                let wi = self.world(wi_local, flip);
+                let sample = self.non_delta_sample(wo, wi)?;
+                Some(BsdfSample {
+                    eta: self.eta(wo, wi),
+                    ..sample
+                })
             }
             Lobes::Mirror { normal, grazing } => {
                 let (flip, wo_local) = self.reflective_frame(wo)?;
@@ -224,7 +270,7 @@ impl Bsdf {
                     eta: 1.0,
                 })
             }
-            Lobes::Dielectric { ior } => self.sample_dielectric(ior, wo, u.x),
+            Lobes::Dielectric(glass) => self.sample_dielectric(&glass, wo, u.x),
         }
     }
 
@@ -265,6 +311,17 @@ impl Bsdf {
             return (Vec3::ZERO, 0.0);
         };
         let wi_local = self.local(wi, flip);
+        if let Lobes::MetallicRoughness(lobe) = self.lobes {
+            // Reflected on wo's side, or refracted to the other (a transmitting lobe's
+            // `eval_pdf` is 0 below where it does not).
+            let sides = wo.dot(self.ng) * wi.dot(self.ng);
+            let reflected = wi_local.z > 0.0 && sides > 0.0;
+            if !reflected && !(wi_local.z < 0.0 && sides < 0.0) {
+                return (Vec3::ZERO, 0.0);
+            }
+            let eta = lobe.eta(flip);
+            return lobe.eval_pdf(wo_local, wi_local, lobe.choice(wo_local, eta), eta);
+        }
         if wi_local.z <= 0.0 || !self.same_side(wo, wi) {
             return (Vec3::ZERO, 0.0);
         }
@@ -284,11 +341,9 @@ impl Bsdf {
                 }
                 (value, pdf)
             }
-            Lobes::MetallicRoughness(lobe) => {
-                let p = lobe.glossy_probability(wo_local);
-                lobe.eval_pdf(wo_local, wi_local, p)
+            Lobes::MetallicRoughness(_) | Lobes::Mirror { .. } | Lobes::Dielectric(_) => {
+                (Vec3::ZERO, 0.0)
             }
-            Lobes::Mirror { .. } | Lobes::Dielectric { .. } => (Vec3::ZERO, 0.0),
         }
     }
 
@@ -325,9 +380,10 @@ impl Bsdf {
     }
 
     /// Reflection with probability `F` (exact Fresnel), refraction otherwise, each with
-    /// weight 1 on the path, times `(η_i/η_t)²` on refraction: radiance is compressed
-    /// into a smaller solid angle on entering a denser medium.
-    fn sample_dielectric(&self, ior: f32, wo: Vec3, coin: f32) -> Option<BsdfSample> {
+    /// weight 1 on the path (clear glass), times `(η_i/η_t)²` on refraction: radiance is
+    /// compressed into a smaller solid angle on entering a denser medium. A tinted
+    /// interface chooses by its split's luminances (see [`Interface::split`]).
+    fn sample_dielectric(&self, glass: &Interface, wo: Vec3, coin: f32) -> Option<BsdfSample> {
         let ns = self.frame.w;
         let cos_o = wo.dot(ns);
         if cos_o == 0.0 || !cos_o.is_finite() {
@@ -335,13 +391,14 @@ impl Bsdf {
         }
         // Arriving from the side the normal points to means entering the glass.
         let (n, eta) = if cos_o > 0.0 {
-            (ns, ior)
+            (ns, glass.ior)
         } else {
-            (-ns, 1.0 / ior)
+            (-ns, 1.0 / glass.ior)
         };
         let cos_i = cos_o.abs();
-        let f = fresnel_dielectric(cos_i, eta);
-        let refracted = if coin < f {
+        let split = glass.split(cos_i, eta);
+        let p = split.p_reflect;
+        let refracted = if coin < p {
             None
         } else {
             refract(wo, n, cos_i, eta)
@@ -349,15 +406,15 @@ impl Bsdf {
         Some(match refracted {
             None => BsdfSample {
                 wi: reflect(wo, n),
-                value: Vec3::splat(f),
-                pdf: f,
+                value: split.reflect,
+                pdf: p,
                 delta: true,
                 eta: 1.0,
             },
             Some(wi) => BsdfSample {
                 wi,
-                value: Vec3::splat((1.0 - f) / (eta * eta)),
-                pdf: 1.0 - f,
+                value: split.transmit / (eta * eta),
+                pdf: 1.0 - p,
                 delta: true,
                 eta,
             },

@@ -206,6 +206,7 @@ fn describe(m: &Material) -> String {
             alpha,
             ior,
             specular,
+            transmission,
         } => {
             let mut s = format!(
                 "glTF metallic-roughness, base colour {}, metallic {}, roughness {} (alpha {alpha})",
@@ -218,6 +219,9 @@ fn describe(m: &Material) -> String {
             }
             if specular != 1.0 || m.specular != Vec3::ONE {
                 s += &format!(", specular {specular} colour {}", rgb(m.specular));
+            }
+            if transmission > 0.0 {
+                s += &format!(", transmission {transmission}");
             }
             s
         }
@@ -233,6 +237,7 @@ fn describe(m: &Material) -> String {
         (maps.shininess, "map_Ns"),
         (maps.roughness, name("map_Pr", "metallicRoughnessTexture")),
         (maps.metallic, name("map_Pm", "metallicRoughnessTexture")),
+        (maps.transmission, "transmissionTexture"),
         (maps.bump, "bump"),
         (maps.normal, name("norm", "normalTexture")),
         (m.opacity_map, name("map_d", "alpha")),

@@ -177,8 +177,12 @@ struct Step<'t> {
 /// A surface point as light sampling sees it: where it is, and the shading normal
 /// whose cosine the scattered light carries, turned to the side of `wo` (the only
 /// side a reflective BSDF takes light from; light sampling is only done at those).
+/// A BSDF that transmits takes light from both sides: no normal.
 #[inline]
-fn receiver(surface: &SurfacePoint, wo: Vec3) -> Receiver {
+fn receiver(surface: &SurfacePoint, bsdf: &Bsdf, wo: Vec3) -> Receiver {
+    if bsdf.transmits() {
+        return Receiver::at(surface.p);
+    }
     Receiver {
         p: surface.p,
         n: reflecting_normal(surface, wo),
@@ -449,7 +453,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
                 IntegratorKind::Light => EmissionWeight::Skip,
                 IntegratorKind::Mis => EmissionWeight::Mis {
                     bsdf_pdf: 0.0,
-                    from: receiver(&surface, wo),
+                    from: receiver(&surface, &bsdf, wo),
                     sky_guide: None,
                 },
             };
@@ -621,7 +625,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         if !self.lights.may_light(surface.p) {
             return Vec3::ZERO;
         }
-        let at = receiver(surface, wo);
+        let at = receiver(surface, bsdf, wo);
         let Some(drawn) = self.draw_light::<GUIDED>(at, guide, rng) else {
             return Vec3::ZERO;
         };
@@ -708,7 +712,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         recorder: &mut R,
         count: &mut RayCount,
     ) -> Vec3 {
-        let at = receiver(surface, wo);
+        let at = receiver(surface, bsdf, wo);
         let Some(light) = self.lights.sample(at, rng).filter(LightSample::is_delta) else {
             return Vec3::ZERO;
         };
@@ -837,7 +841,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             weight: value / pdf,
             pdf,
             emission,
-            eta: 1.0,
+            eta: bsdf.eta(wo, wi),
             traced: None,
             mixture: Some(MixtureTerms {
                 bsdf_value: value,
@@ -882,7 +886,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
         }
         let bsdf_pdf = BsdfPdf { bsdf, wo };
-        let at = receiver(surface, wo);
+        let at = receiver(surface, bsdf, wo);
         let lights = &self.lights;
         match guide {
             // Training draws every guided vertex's sky directions as a guided light
@@ -973,7 +977,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             weight: value / density,
             pdf: density,
             emission: EmissionWeight::Full,
-            eta: 1.0,
+            eta: bsdf.eta(wo, dir),
             traced: Some(next),
             mixture: guide.map(|guide| MixtureTerms {
                 bsdf_value: value,

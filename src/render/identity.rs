@@ -264,6 +264,7 @@ impl Fingerprint {
             roughness_channel,
             metallic: metallic_map,
             metallic_channel,
+            transmission: transmission_map,
             bump,
             bump_scale,
             normal,
@@ -289,6 +290,10 @@ impl Fingerprint {
         // Only channels other than the default are hashed, like cut-outs below.
         if (roughness_channel, metallic_channel) != (Channel::Red, Channel::Red) {
             self.u32s([roughness_channel as u32, metallic_channel as u32]);
+        }
+        // Likewise the transmission map, which glTF's transmission alone has.
+        if let Some(map) = transmission_map {
+            self.u32s([map]);
         }
         // Only cut-outs are hashed, so that opaque scenes keep the fingerprint they had
         // before opacity existed (and their checkpoints stay resumable).
@@ -316,9 +321,14 @@ impl Fingerprint {
                 alpha,
                 ior,
                 specular,
+                transmission,
             } => {
                 self.u32s([4]);
                 self.f32s([alpha, ior, specular]);
+                // Hashed only where there is some, as cut-outs are.
+                if transmission > 0.0 {
+                    self.f32s([transmission]);
+                }
             }
         }
     }

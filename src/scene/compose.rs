@@ -85,6 +85,7 @@ impl Offsets {
         maps.emission = texture(maps.emission);
         maps.roughness = texture(maps.roughness);
         maps.metallic = texture(maps.metallic);
+        maps.transmission = texture(maps.transmission);
         maps.bump = texture(maps.bump);
         maps.normal = texture(maps.normal);
         m.opacity_map = m.opacity_map.map(|a| a + self.alpha);

@@ -31,8 +31,9 @@
 //! A glTF material is not read from MTL: its loader makes a [`Model::MetallicRoughness`]
 //! with [`Material::metallic_roughness`] and sets the maps. Its factors *multiply* their
 //! textures (`baseColorFactor` in `Kd` × `map_Kd`, `specularColorFactor` in `Ks` ×
-//! `map_Ks`), and one metallic-roughness texture feeds both scalars through
-//! [`Channel`]s: roughness from green, metallic from blue.
+//! `map_Ks`, `transmissionFactor` in the model × `maps.transmission`), and one
+//! metallic-roughness texture feeds both scalars through [`Channel`]s: roughness from
+//! green, metallic from blue.
 
 use glam::Vec3;
 
@@ -49,11 +50,17 @@ pub enum Model {
     Coated { alpha: f32 },
     /// Smooth glass of index `ior`.
     Glass { ior: f32 },
-    /// The glTF 2.0 metallic-roughness BRDF ([`MetallicRoughness`]): base colour `Kd`,
+    /// The glTF 2.0 metallic-roughness BSDF ([`MetallicRoughness`]): base colour `Kd`,
     /// metallic `Pm`, roughness `Pr` (`alpha` = `Pr²`); `ior` is `KHR_materials_ior`'s
-    /// and `specular` `KHR_materials_specular`'s `specularFactor`, whose
-    /// `specularColorFactor` is `Ks`.
-    MetallicRoughness { alpha: f32, ior: f32, specular: f32 },
+    /// (infinite for its 0), `specular` `KHR_materials_specular`'s `specularFactor`,
+    /// whose `specularColorFactor` is `Ks`, and `transmission`
+    /// `KHR_materials_transmission`'s `transmissionFactor`.
+    MetallicRoughness {
+        alpha: f32,
+        ior: f32,
+        specular: f32,
+        transmission: f32,
+    },
 }
 
 /// Which channel of its texture a scalar map reads. A single-channel texture (what
@@ -95,6 +102,9 @@ pub struct MaterialMaps {
     pub metallic: Option<u32>,
     /// The channel `metallic` reads (glTF's metallic-roughness texture: blue).
     pub metallic_channel: Channel,
+    /// glTF's `transmissionTexture` (scalar, its red channel): multiplies the model's
+    /// `transmission`.
+    pub transmission: Option<u32>,
     /// `bump` / `map_Bump` (scalar height map) and its `-bm` multiplier.
     pub bump: Option<u32>,
     pub bump_scale: f32,
@@ -185,6 +195,8 @@ pub struct SurfaceParams {
     pub alpha: f32,
     /// Metallic, in [0, 1].
     pub metallic: f32,
+    /// The glTF transmission (factor × map), in [0, 1]; 0 for the other models.
+    pub transmission: f32,
 }
 
 /// GGX roughness from a Phong exponent: `sqrt(2 / (Ns + 2))`, `Ns` absent or negative
@@ -264,6 +276,7 @@ impl Material {
                 alpha: alpha_from_pr(roughness),
                 ior: 1.5,
                 specular: 1.0,
+                transmission: 0.0,
             },
             roughness: Some(roughness),
             metallic: metallic.clamp(0.0, 1.0),
@@ -327,6 +340,7 @@ impl Material {
                     ior,
                     specular,
                     specular_colour: p.specular,
+                    transmission: p.transmission,
                 };
                 Bsdf::metallic_roughness(&m, ns, ng)
             }

@@ -349,11 +349,19 @@ impl Scene {
         };
         let roughness = scalar(maps.roughness, maps.roughness_channel);
         let shininess = scalar(maps.shininess, Channel::Red);
+        let transmission = match material.model {
+            Model::MetallicRoughness { transmission, .. } if transmission > 0.0 => {
+                let map = scalar(maps.transmission, Channel::Red).unwrap_or(1.0);
+                (transmission * map).clamp(0.0, 1.0)
+            }
+            _ => 0.0,
+        };
         SurfaceParams {
             albedo,
             specular,
             alpha: material.alpha_at(roughness, shininess),
             metallic: metallic.clamp(0.0, 1.0),
+            transmission,
         }
     }
 

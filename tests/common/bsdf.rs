@@ -46,6 +46,13 @@ pub fn albedo(bsdf: &Bsdf, wo: Vec3, n: usize, seed: u64) -> (Vec3, f32) {
 /// Chi-square of the directions drawn for `wo` against `pdf`, whose integral (by
 /// quadrature) must equal the fraction of draws that yield a direction.
 pub fn assert_draws_follow_pdf(label: &str, bsdf: &Bsdf, n: Vec3, wo: Vec3, seed: u64) {
+    assert_draws_follow_pdf_about(label, bsdf, n, wo, seed);
+}
+
+/// [`assert_draws_follow_pdf`] with bins of (cos θ, φ) about `axis`: about a direction
+/// across the normal, the lobes near the normal and its opposite (where refraction
+/// sends light seen head-on) lie where the bins are finest.
+pub fn assert_draws_follow_pdf_about(label: &str, bsdf: &Bsdf, axis: Vec3, wo: Vec3, seed: u64) {
     let value = |wi: Vec3| bsdf.pdf(wo, wi);
     let sampler = |rng: &mut Rng| draw(bsdf, wo, rng).map(|s| s.wi);
     // The fraction of draws that yield a direction, measured apart.
@@ -65,7 +72,7 @@ pub fn assert_draws_follow_pdf(label: &str, bsdf: &Bsdf, n: Vec3, wo: Vec3, seed
         sub: 24,
         draws: 200_000,
     };
-    check_density(label, &density, n, kept, 0.01, binning, seed);
+    check_density(label, &density, axis, kept, 0.01, binning, seed);
 }
 
 /// [`assert_draws_follow_pdf`] for every named lobe, at every polar angle of `wo` in

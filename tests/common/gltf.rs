@@ -5,6 +5,8 @@
 use base64::Engine;
 use serde_json::{json, Value};
 
+use super::ember_in;
+
 /// A glTF document under construction, with one buffer.
 #[derive(Clone)]
 pub struct GltfBuilder {
@@ -211,4 +213,35 @@ pub fn floor_quad(half: f32, y: f32) -> ([[f32; 3]; 4], [[f32; 2]; 4], [u32; 6])
         // Counter-clockwise seen from +y.
         [0, 2, 1, 0, 3, 2],
     )
+}
+
+/// An RGB image as a PNG in a `data:` URI, for a glTF's `images`.
+pub fn png_data_uri(image: image::RgbImage) -> String {
+    let mut png = Vec::new();
+    image::DynamicImage::ImageRgb8(image)
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    let data = base64::engine::general_purpose::STANDARD.encode(&png);
+    format!("data:image/png;base64,{data}")
+}
+
+/// Runs `ember render` and `ember info` on `bytes` as `name`: each must fail with one
+/// `error:` line naming the file and containing `says`.
+pub fn refused(name: &str, bytes: &[u8], says: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join(name), bytes).unwrap();
+    for command in [
+        &[
+            "render", name, "--spp", "1", "--width", "4", "--height", "4",
+        ][..],
+        &["info", name],
+    ] {
+        let out = ember_in(command, dir.path());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{name}: {err}");
+        assert_eq!(err.lines().count(), 1, "{name}: {err}");
+        assert!(err.starts_with(&format!("error: {name}")), "{name}: {err}");
+        assert!(err.contains(says), "{name}: expected {says:?} in {err}");
+        assert!(!err.contains("panicked"), "{err}");
+    }
 }

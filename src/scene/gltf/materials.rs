@@ -4,6 +4,9 @@
 //! [`metallic_roughness`] makes each an ember [`Model::MetallicRoughness`] material
 //! (the specification's BRDF): factors multiply their textures, and the one
 //! metallic-roughness texture feeds roughness (green) and metallic (blue).
+//! `KHR_materials_ior`, `KHR_materials_specular` and `KHR_materials_transmission` set
+//! the dielectric (see [`Dielectric`]); the specular texture, a map of
+//! `specularFactor` in an alpha channel, is not read (one warning).
 //!
 //! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided` is
 //! read but changes nothing: ember shades both sides of every surface, as Cycles does.
@@ -19,7 +22,7 @@ use gltf::material::AlphaMode;
 use super::images::{make_textures, Made, Purpose};
 use super::source::Source;
 use crate::scene::warnings::Warnings;
-use crate::scene::{Channel, Material, MaterialMaps, SceneError};
+use crate::scene::{Channel, Material, MaterialMaps, Model, SceneError};
 
 /// Which texture coordinates a material's primitives read, and how they are moved.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,6 +45,77 @@ impl UvChoice {
     }
 }
 
+/// What `KHR_materials_ior`, `KHR_materials_specular` and `KHR_materials_transmission`
+/// say of a material's dielectric; the defaults are the core specification's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Dielectric {
+    /// The index of refraction: 1.5, or at least 1; infinite for the extension's 0.
+    pub ior: f32,
+    /// `specularFactor`, in [0, 1].
+    pub specular: f32,
+    /// `specularColorFactor` (≥ 0), which scales `F0`.
+    pub specular_colour: Vec3,
+    /// `transmissionFactor`, in [0, 1].
+    pub transmission: f32,
+}
+
+impl Default for Dielectric {
+    fn default() -> Self {
+        Dielectric {
+            ior: 1.5,
+            specular: 1.0,
+            specular_colour: Vec3::ONE,
+            transmission: 0.0,
+        }
+    }
+}
+
+impl Dielectric {
+    /// The extensions' values of `material`, or why one of them cannot be used.
+    fn of(material: &gltf::Material<'_>) -> Result<Dielectric, String> {
+        let mut d = Dielectric::default();
+        if let Some(ior) = material.ior() {
+            d.ior = match ior {
+                0.0 => f32::INFINITY,
+                ior if ior >= 1.0 && ior.is_finite() => ior,
+                ior => {
+                    return Err(format!(
+                        "its KHR_materials_ior ior {ior} is out of range: it is at least 1, \
+                         or 0 for an infinite index"
+                    ))
+                }
+            };
+        }
+        if let Some(specular) = material.specular() {
+            d.specular = specular.specular_factor();
+            d.specular_colour = Vec3::from(specular.specular_color_factor());
+        }
+        if let Some(transmission) = material.transmission() {
+            d.transmission = transmission.transmission_factor();
+        }
+        let unit = |x: f32| (0.0..=1.0).contains(&x);
+        let bad = |key: &str, value: String, range: &str| {
+            Err(format!("its {key} {value} is out of range: it is {range}"))
+        };
+        if !unit(d.specular) {
+            return bad("specularFactor", d.specular.to_string(), "in [0, 1]");
+        }
+        let colour = d.specular_colour;
+        if !(colour.is_finite() && colour.min_element() >= 0.0) {
+            let rgb = format!("[{}, {}, {}]", colour.x, colour.y, colour.z);
+            return bad("specularColorFactor", rgb, "finite and not negative");
+        }
+        if !unit(d.transmission) {
+            return bad(
+                "transmissionFactor",
+                d.transmission.to_string(),
+                "in [0, 1]",
+            );
+        }
+        Ok(d)
+    }
+}
+
 /// A glTF material's parameters with its textures' indices in the scene.
 #[derive(Clone, Debug, Default)]
 pub struct GltfValues {
@@ -57,20 +131,38 @@ pub struct GltfValues {
     pub normal_texture: Option<u32>,
     pub opacity: f32,
     pub opacity_map: Option<u32>,
+    pub dielectric: Dielectric,
+    /// `specularColorTexture` (sRGB).
+    pub specular_colour_texture: Option<u32>,
+    /// `transmissionTexture`, read through its red channel.
+    pub transmission_texture: Option<u32>,
 }
 
 /// The one mapping from glTF's metallic-roughness parameters to an ember material.
 pub fn metallic_roughness(v: &GltfValues) -> Material {
     let mut material =
         Material::metallic_roughness(&v.name, v.base_colour, v.metallic, v.roughness);
+    let d = v.dielectric;
+    if let Model::MetallicRoughness {
+        ior,
+        specular,
+        transmission,
+        ..
+    } = &mut material.model
+    {
+        (*ior, *specular, *transmission) = (d.ior, d.specular, d.transmission);
+    }
+    material.specular = d.specular_colour;
     material.diffuse_texture = v.base_texture;
     material.emission = v.emission.max(Vec3::ZERO);
     material.maps = MaterialMaps {
+        specular: v.specular_colour_texture,
         emission: v.emission_texture,
         roughness: v.metallic_roughness_texture,
         roughness_channel: Channel::Green,
         metallic: v.metallic_roughness_texture,
         metallic_channel: Channel::Blue,
+        transmission: v.transmission_texture,
         normal: v.normal_texture,
         bump_scale: 1.0,
         ..MaterialMaps::default()
@@ -136,9 +228,9 @@ pub fn texture_transform(offset: [f32; 2], rotation: f32, scale: [f32; 2]) -> Re
 /// each with [`metallic_roughness`].
 pub fn read_materials(source: &Source, warnings: &mut Warnings) -> Result<Materials, SceneError> {
     let document = &source.document;
-    let bad = |name: &str, reason: String| SceneError::Material {
-        material: name.to_owned(),
-        reason,
+    let bad = |name: &str, reason: String| SceneError::Gltf {
+        path: source.path.clone(),
+        reason: format!("material {name:?}: {reason}"),
     };
     // First what each material asks of which image, so each image is decoded once.
     let mut requests: BTreeMap<(usize, Purpose), (String, String)> = BTreeMap::new();
@@ -150,6 +242,14 @@ pub fn read_materials(source: &Source, warnings: &mut Warnings) -> Result<Materi
             requests
                 .entry(*key)
                 .or_insert_with(|| (name.clone(), instead.clone()));
+        }
+        if plan.specular_map_ignored {
+            warnings.push(format!(
+                "material {name:?}: its KHR_materials_specular specularTexture (a map of \
+                 specularFactor in its alpha channel) is not read; ember uses the \
+                 specularFactor {} everywhere",
+                plan.values.dielectric.specular
+            ));
         }
         if plan.mixed_uvs {
             warnings.push(format!(
@@ -177,6 +277,8 @@ pub fn read_materials(source: &Source, warnings: &mut Warnings) -> Result<Materi
             metallic_roughness_texture: id(plan.metallic_roughness),
             emission_texture: id(plan.emission),
             normal_texture: id(plan.normal),
+            specular_colour_texture: id(plan.specular_colour),
+            transmission_texture: id(plan.transmission),
             opacity_map,
             ..plan.values
         };
@@ -208,6 +310,10 @@ struct Plan {
     emission: Option<(usize, Purpose)>,
     normal: Option<(usize, Purpose)>,
     alpha: Option<(usize, Purpose)>,
+    specular_colour: Option<(usize, Purpose)>,
+    transmission: Option<(usize, Purpose)>,
+    /// Whether the material has a specular texture, which ember does not read.
+    specular_map_ignored: bool,
     /// Every request with what the material uses where its image is absent.
     requests: Vec<((usize, Purpose), String)>,
     uv: UvChoice,
@@ -247,6 +353,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         roughness: pbr.roughness_factor(),
         emission: Vec3::from(material.emissive_factor()) * strength.max(0.0),
         opacity: 1.0,
+        dielectric: Dielectric::of(material)?,
         ..GltfValues::default()
     };
     let mut slots = Vec::new();
@@ -286,6 +393,32 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         emission = ask(s.texture, Purpose::Emission, instead);
         slots.push(s);
     }
+    // The specular colour is an sRGB colour as the base colour is, the transmission
+    // linear data as the metallic-roughness texture is: the same decodings.
+    let (mut specular_colour, mut transmission) = (None, None);
+    let specular = material.specular();
+    if let Some(info) = specular.as_ref().and_then(|s| s.specular_color_texture()) {
+        let s = slot(&info, "specularColorTexture")?;
+        let instead = format!(
+            "the material uses its specularColorFactor {} instead",
+            rgb(values.dielectric.specular_colour)
+        );
+        specular_colour = ask(s.texture, Purpose::BaseColour, instead);
+        slots.push(s);
+    }
+    if let Some(info) = material
+        .transmission()
+        .and_then(|t| t.transmission_texture())
+    {
+        let s = slot(&info, "transmissionTexture")?;
+        let instead = format!(
+            "the material uses its transmissionFactor {} instead",
+            values.dielectric.transmission
+        );
+        transmission = ask(s.texture, Purpose::MetallicRoughness, instead);
+        slots.push(s);
+    }
+    let specular_map_ignored = specular.is_some_and(|s| s.specular_texture().is_some());
     if let Some(n) = material.normal_texture() {
         let s = Slot {
             texture: n.texture().index(),
@@ -340,6 +473,9 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         emission,
         normal,
         alpha,
+        specular_colour,
+        transmission,
+        specular_map_ignored,
         requests,
         uv,
         uv_from: first.map_or("base colour texture", |s| s.name),

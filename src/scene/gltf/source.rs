@@ -17,9 +17,12 @@ use crate::limits::{check_fits, human_bytes};
 pub const MEMORY_PER_JSON_BYTE: u64 = 16;
 
 /// The extensions ember reads; a file that requires another is refused.
-pub const SUPPORTED_EXTENSIONS: [&str; 4] = [
+pub const SUPPORTED_EXTENSIONS: [&str; 7] = [
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
+    "KHR_materials_transmission",
     "KHR_texture_transform",
     "KHR_mesh_quantization",
 ];
@@ -30,6 +33,8 @@ const EXTENSIONS_READ_HERE: [&str; 1] = ["KHR_mesh_quantization"];
 
 /// A glTF document with its buffers' bytes and the folder its URIs are relative to.
 pub struct Source {
+    /// The file, for messages.
+    pub path: PathBuf,
     pub document: Document,
     /// One per buffer of the document, each at least its declared `byteLength`.
     pub buffers: Vec<Vec<u8>>,
@@ -82,6 +87,7 @@ pub fn read(path: &Path) -> Result<Source, String> {
     });
     let buffers = read_buffers(&document, &folder, bin)?;
     Ok(Source {
+        path: path.to_owned(),
         document,
         buffers,
         folder,
