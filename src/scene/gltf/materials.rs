@@ -5,8 +5,11 @@
 //! (the specification's BRDF): factors multiply their textures, and the one
 //! metallic-roughness texture feeds roughness (green) and metallic (blue).
 //!
-//! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided` is
-//! read but changes nothing: ember shades both sides of every surface, as Cycles does.
+//! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided`
+//! makes an emissive material emit from both faces, as the specification's
+//! double-sided lighting (the back face lit with its normal reversed) and Cycles do;
+//! without it only the counter-clockwise face emits. Reflection needs no flag: ember
+//! shades both sides of every surface.
 //! One set of texture coordinates and one `KHR_texture_transform` serve all of a
 //! material's textures: its base colour texture's (else its first texture's), baked into
 //! the texture coordinates of the primitives that use it.
@@ -57,6 +60,8 @@ pub struct GltfValues {
     pub normal_texture: Option<u32>,
     pub opacity: f32,
     pub opacity_map: Option<u32>,
+    /// `doubleSided`.
+    pub double_sided: bool,
 }
 
 /// The one mapping from glTF's metallic-roughness parameters to an ember material.
@@ -77,6 +82,7 @@ pub fn metallic_roughness(v: &GltfValues) -> Material {
     };
     material.opacity = v.opacity;
     material.opacity_map = v.opacity_map;
+    material.two_sided_emission = v.double_sided && material.is_emissive();
     material
 }
 
@@ -247,6 +253,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         roughness: pbr.roughness_factor(),
         emission: Vec3::from(material.emissive_factor()) * strength.max(0.0),
         opacity: 1.0,
+        double_sided: material.double_sided(),
         ..GltfValues::default()
     };
     let mut slots = Vec::new();
