@@ -1,10 +1,11 @@
 //! Lights a scene places, against mathematics: a point light's inverse-square law (in
 //! W/sr and in candela at 683 lm/W), a spot's cut-off and its `KHR_lights_punctual`
 //! falloff, a sun's `E cos θ` (a delta light, and a disc of the same mean), area lights'
-//! inverse-square irradiance from their power and their radiance seen directly, the
-//! tessellation's error, every integrator agreeing on scenes of every kind of light,
+//! inverse-square irradiance from their power and their radiance seen directly, a
+//! two-sided quad lighting two parallel planes by the rectangle's form factor and
+//! splitting its power over both faces, the tessellation's error, every integrator agreeing on scenes of every kind of light,
 //! a closed room lit by a point light that conserves energy, and guiding staying
-//! unbiased; then scene files with every light type on both backends, their errors,
+//! unbiased (with a point light and a two-sided panel seen from behind); then scene files with every light type on both backends, their errors,
 //! and `ember info`'s list.
 
 mod common;
@@ -24,8 +25,8 @@ use ember::render::{render, scene_hash, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{
     area_light_scene, compose, intensity_from_candela, irradiance_from_lux, AreaEmission,
-    AreaLight, AreaShape, Camera, CameraSettings, DirectionalLight, Environment, Light, Placement,
-    PointLight, Scene, SpotCone,
+    AreaLight, AreaShape, Camera, CameraSettings, DirectionalLight, Environment, Light, Material,
+    Placement, PointLight, Scene, SpotCone,
 };
 use glam::{Affine3A, DVec3, Quat, Vec3};
 
@@ -798,27 +799,65 @@ fn a_point_light_in_a_closed_room_conserves_energy() {
     }
 }
 
+/// The walls of the box `[-1, 1]³` facing inwards, of material 0, with a hole in the
+/// ceiling over x, z ∈ [0, 0.25).
+fn box_with_a_hole() -> Vec<([Vec3; 3], u32)> {
+    let hole = |t: &[Vec3; 3]| {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
+    };
+    inward_cube(8, 0)
+        .into_iter()
+        .filter(|(t, _)| !hole(t))
+        .collect()
+}
+
 /// A box lit only through a hole in its ceiling by a point light above the hole: the
 /// guide learns the way in (where light samples from inside are blocked), and the
 /// guided image converges to the unguided one (relMSE against an unguided reference
 /// falls like 1/spp), with the same mean.
 #[test]
 fn guiding_with_a_point_light_renders_the_unguided_image() {
-    let cells = 8;
-    let hole = |t: &[Vec3; 3]| {
-        let c = (t[0] + t[1] + t[2]) / 3.0;
-        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
-    };
-    let walls: Vec<_> = inward_cube(cells, 0)
-        .into_iter()
-        .filter(|(t, _)| !hole(t))
-        .collect();
-    let mut built = build(&walls, vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)]);
+    let mut built = build(
+        &box_with_a_hole(),
+        vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)],
+    );
     built.scene.lights = vec![Light::Point(PointLight {
         position: Vec3::new(0.125, 1.4, 0.125),
         intensity: Vec3::splat(3.0),
         spot: None,
     })];
+    guiding_renders_the_unguided_image("a point light", &built);
+}
+
+/// The same box lit through the hole by a two-sided panel above it that faces up, away
+/// from it: the light the guide learns comes from the panel's back.
+#[test]
+fn guiding_with_a_two_sided_light_seen_from_behind_renders_the_unguided_image() {
+    let y = 1.4;
+    let mut triangles = box_with_a_hole();
+    // Counter-clockwise seen from above: its front faces up, away from the box.
+    triangles.extend(quad(
+        Vec3::new(0.0, y, 0.0),
+        Vec3::new(0.0, y, 0.25),
+        Vec3::new(0.25, y, 0.25),
+        Vec3::new(0.25, y, 0.0),
+        1,
+    ));
+    let panel = Material {
+        two_sided_emission: true,
+        ..diffuse(Vec3::ZERO, Vec3::splat(48.0))
+    };
+    let built = build(
+        &triangles,
+        vec![diffuse(Vec3::splat(0.5), Vec3::ZERO), panel],
+    );
+    guiding_renders_the_unguided_image("a two-sided panel", &built);
+}
+
+/// Renders of the box of `built` from inside, guided at 64 and 256 spp, against an
+/// unguided one of 8192: see the tests above.
+fn guiding_renders_the_unguided_image(label: &str, built: &Built) {
     let size = 24;
     let camera: Camera = CameraSettings {
         eye: Vec3::new(0.0, 0.2, 0.9),
@@ -882,14 +921,17 @@ fn guiding_with_a_point_light_renders_the_unguided_image() {
     let ((low, _), (high, high_mean)) = (error(64), error(256));
     let reference_mean = mean(&reference);
     eprintln!(
-        "guided with a point light: relMSE {low:.3e} at 64 spp, {high:.3e} at 256; mean {high_mean} against {reference_mean}"
+        "guided with {label}: relMSE {low:.3e} at 64 spp, {high:.3e} at 256; mean {high_mean} against {reference_mean}"
     );
     assert!(reference_mean > 0.0);
     assert!(
         high < low / 2.5,
-        "relMSE {low:.3e} at 64 spp, {high:.3e} at 256"
+        "{label}: relMSE {low:.3e} at 64 spp, {high:.3e} at 256"
     );
-    assert!((high_mean / reference_mean - 1.0).abs() < 0.02);
+    assert!(
+        (high_mean / reference_mean - 1.0).abs() < 0.02,
+        "{label}: mean {high_mean} against {reference_mean}"
+    );
 }
 
 /// A scene placed by instances places its lights with it: each placement moves a point
