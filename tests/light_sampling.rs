@@ -1,15 +1,16 @@
 //! Light sampling checked against mathematics: spherical-triangle sampling and the
 //! emitter's strategy rule against their densities (chi-square over cells of the
-//! triangle), the light BVH's choice probabilities (they sum to 1 and match the
-//! frequencies of its choices), and direct light from constructed scenes with known
-//! answers.
+//! triangle), from in front of an emitter and from behind a two-sided one; the light
+//! BVH's choice probabilities (they sum to 1, vanish only where no light can shine, and
+//! match the frequencies of its choices), one-sided and two-sided; and direct light
+//! from constructed scenes with known answers.
 
 mod common;
 
 use std::f64::consts::PI;
 
 use common::stats::{assert_chi_square, monte_carlo};
-use common::{build, diffuse, Built};
+use common::{build, diffuse, lambert_irradiance, Built};
 use ember::light::bvh::{LightBounds, LightBvh};
 use ember::light::spherical_triangle::{
     bilinear_density, sample_bilinear, SphericalTriangle, Warp,
@@ -19,6 +20,7 @@ use ember::light::{
     MIN_SOLID_ANGLE,
 };
 use ember::sampling::{uniform_sphere, Rng};
+use ember::scene::Material;
 use glam::{DVec3, Vec3};
 
 /// An emitting triangle in the plane y = 0, emitting downwards (−y).
@@ -194,6 +196,30 @@ fn one_emitter() -> Built {
     )
 }
 
+/// [`one_emitter`] emitting from both faces.
+fn two_sided_emitter() -> Built {
+    let mut built = one_emitter();
+    built.scene.materials[0].two_sided_emission = true;
+    built
+}
+
+/// [`receivers`] mirrored through the triangle's plane: behind it, facing it.
+fn receivers_behind() -> Vec<(&'static str, Receiver)> {
+    let mirror = |v: Vec3| Vec3::new(v.x, -v.y, v.z);
+    receivers()
+        .into_iter()
+        .map(|(name, at)| {
+            (
+                name,
+                Receiver {
+                    p: mirror(at.p),
+                    n: mirror(at.n),
+                },
+            )
+        })
+        .collect()
+}
+
 fn sampler(built: &Built, kind: LightSamplerKind) -> LightSampler {
     LightSampler::with_kind(
         &built.scene.mesh,
@@ -299,6 +325,63 @@ fn emitter_draws_follow_the_density_of_their_strategy() {
     );
 }
 
+/// A two-sided emitter seen from behind is sampled as from in front: its draws follow
+/// the density `pdf_hit` reports (which integrates to 1 over the triangle), for every
+/// sampler and whichever strategy the rule picks; one-sided, nothing is drawn from
+/// behind and `pdf_hit` is 0 there.
+#[test]
+fn a_two_sided_emitter_is_drawn_from_behind_with_the_density_pdf_hit_reports() {
+    let two_sided = two_sided_emitter();
+    let one_sided = one_emitter();
+    for kind in LightSamplerKind::ALL {
+        let lights = sampler(&two_sided, kind);
+        let dark = sampler(&one_sided, kind);
+        for (k, (name, at)) in receivers_behind().into_iter().enumerate() {
+            let density =
+                |dir: Vec3, distance: f32| f64::from(lights.pdf_hit(at, 0, dir, distance));
+            let draw = |rng: &mut Rng| {
+                let sample = lights.sample(at, rng)?;
+                let value = lights.pdf_hit(at, 0, sample.dir, sample.distance);
+                assert!(
+                    (value - sample.pdf).abs() <= 1e-3 * sample.pdf,
+                    "{name}: pdf_hit {value} vs the draw's {}",
+                    sample.pdf
+                );
+                assert_eq!(sample.emission, Vec3::splat(2.0), "{name}: its radiance");
+                Some(sample.point.unwrap().p)
+            };
+            let label = format!("two-sided ({kind:?}) behind, {name}, n {:?}", at.n);
+            check_on_triangle(&label, at.p, TRIANGLE, &density, &draw, 300 + k as u64);
+            let mut rng = Rng::seeded(k as u64);
+            let towards = (Vec3::new(0.1, 0.0, -0.2) - at.p).normalize();
+            let distance = at.p.y / -towards.y;
+            assert!(dark.sample(at, &mut rng).is_none(), "{name}: one-sided");
+            assert_eq!(dark.pdf_hit(at, 0, towards, distance), 0.0, "{name}");
+        }
+    }
+}
+
+/// Behind a two-sided triangle, the light-sampling estimate of the irradiance matches
+/// Lambert's formula, as it does in front, for every sampler.
+#[test]
+fn irradiance_behind_a_two_sided_triangle_matches_lamberts_formula() {
+    let receivers = [
+        Receiver {
+            p: Vec3::new(0.0, 0.2, 0.0),
+            n: -Vec3::Y,
+        },
+        Receiver {
+            p: Vec3::new(2.0, 0.5, 0.0),
+            n: Vec3::new(-1.0, -0.3, 0.0).normalize(),
+        },
+        Receiver {
+            p: Vec3::new(0.0, -0.2, 0.0),
+            n: Vec3::Y,
+        },
+    ];
+    irradiance_matches_lamberts_formula(&two_sided_emitter(), &receivers, 60);
+}
+
 /// Random emitters: positions in a box, normals anywhere, powers over four decades
 /// (some zero); with each one's vertices.
 fn random_lights(n: usize, seed: u64) -> (Vec<LightBounds>, Vec<[Vec3; 3]>) {
@@ -322,6 +405,17 @@ fn random_lights(n: usize, seed: u64) -> (Vec<LightBounds>, Vec<[Vec3; 3]>) {
         .unzip()
 }
 
+/// [`random_lights`] with every third light two-sided.
+fn random_lights_some_two_sided(n: usize, seed: u64) -> (Vec<LightBounds>, Vec<[Vec3; 3]>) {
+    let (lights, vertices) = random_lights(n, seed);
+    let lights = lights
+        .into_iter()
+        .enumerate()
+        .map(|(i, l)| if i % 3 == 0 { l.two_sided() } else { l })
+        .collect();
+    (lights, vertices)
+}
+
 fn random_receiver(rng: &mut Rng, with_normal: bool) -> (Vec3, Vec3) {
     let p = Vec3::new(rng.f32(), rng.f32(), rng.f32()) * 14.0 - 7.0;
     let (u1, u2) = rng.pair();
@@ -335,10 +429,17 @@ fn random_receiver(rng: &mut Rng, with_normal: bool) -> (Vec3, Vec3) {
     )
 }
 
+/// With one-sided lights, and with every third light two-sided.
 #[test]
 fn bvh_probabilities_sum_to_one_and_vanish_only_where_no_light_shines() {
-    for n in [1, 2, 3, 300] {
-        let (lights, vertices) = random_lights(n, 31 + n as u64);
+    for (n, two_sided) in [1, 2, 3, 300]
+        .into_iter()
+        .flat_map(|n| [(n, false), (n, true)])
+    {
+        let (lights, vertices) = match two_sided {
+            false => random_lights(n, 31 + n as u64),
+            true => random_lights_some_two_sided(n, 31 + n as u64),
+        };
         let bvh = LightBvh::new(&lights).expect("some power");
         let mut rng = Rng::seeded(7);
         let mut zero = 0;
@@ -364,7 +465,7 @@ fn bvh_probabilities_sum_to_one_and_vanish_only_where_no_light_shines() {
             for (i, light) in lights.iter().enumerate() {
                 if probabilities[i] == 0.0 && light.power > 0.0 {
                     assert!(
-                        !can_light(vertices[i], light.axis, p, normal),
+                        !can_light(vertices[i], light, p, normal),
                         "light {i} can shine on {p} (normal {normal}) but has probability 0"
                     );
                 }
@@ -376,13 +477,14 @@ fn bvh_probabilities_sum_to_one_and_vanish_only_where_no_light_shines() {
     }
 }
 
-/// Whether the one-sided emitting triangle `v` (unit normal `m`) can send light to a
+/// Whether the emitting triangle `v` (unit normal `light.axis`) can send light to a
 /// receiver at `p` that takes light only from the side of its normal `n` (zero: from
-/// everywhere): `p` is in front of the triangle's plane and some of the triangle is
-/// in front of `p`'s (beyond a rounding tolerance).
-fn can_light(v: [Vec3; 3], m: Vec3, p: Vec3, n: Vec3) -> bool {
+/// everywhere): `p` is in front of the triangle's plane (or off it, for a two-sided
+/// light) and some of the triangle is in front of `p`'s (beyond a rounding tolerance).
+fn can_light(v: [Vec3; 3], light: &LightBounds, p: Vec3, n: Vec3) -> bool {
     let tolerance = 1e-5 * (1.0 + p.abs().max_element());
-    let emits = (p - v[0]).dot(m) > tolerance;
+    let height = (p - v[0]).dot(light.axis);
+    let emits = height > tolerance || (light.two_sided && height < -tolerance);
     let received = n == Vec3::ZERO || v.iter().any(|&q| (q - p).dot(n) > tolerance);
     emits && received
 }
@@ -468,7 +570,7 @@ fn bvh_probabilities_vanish_only_where_no_light_shines_near_lamps() {
             if probability == 0.0 {
                 culled += 1;
                 assert!(
-                    !can_light(vertices[j], lights[j].axis, p, normal),
+                    !can_light(vertices[j], &lights[j], p, normal),
                     "light {j} can shine on {p} (normal {normal}) but has probability 0"
                 );
             }
@@ -490,16 +592,18 @@ fn bvh_probabilities_vanish_only_where_no_light_shines_near_lamps() {
     assert!(culled > 0);
 }
 
-/// Over trees of two to five levels of four-wide nodes (60 and 700 lights).
+/// Over trees of two to five levels of four-wide nodes (60 and 700 lights), and with
+/// every third light two-sided.
 #[test]
 fn bvh_choices_follow_its_probabilities() {
     for (n, receivers) in [(60, 6), (700, 3)] {
-        bvh_choices_follow_its_probabilities_with(n, receivers);
+        bvh_choices_follow_its_probabilities_with(random_lights(n, 5).0, receivers);
     }
+    bvh_choices_follow_its_probabilities_with(random_lights_some_two_sided(60, 6).0, 4);
 }
 
-fn bvh_choices_follow_its_probabilities_with(n: usize, receivers: u64) {
-    let (lights, _) = random_lights(n, 5);
+fn bvh_choices_follow_its_probabilities_with(lights: Vec<LightBounds>, receivers: u64) {
+    let n = lights.len();
     let bvh = LightBvh::new(&lights).unwrap();
     let mut rng = Rng::seeded(9);
     for k in 0..receivers {
@@ -548,21 +652,6 @@ fn bvh_build_is_deterministic() {
     }
 }
 
-/// Irradiance from a uniformly emitting polygon (Lambert's formula): `L/2 Σ θ_i
-/// (n · unit(r_i × r_{i+1}))` over its edges seen from `p`, with sign for the side.
-fn lambert_irradiance(p: Vec3, n: Vec3, v: &[Vec3], radiance: f64) -> f64 {
-    let r: Vec<DVec3> = v.iter().map(|x| (*x - p).as_dvec3().normalize()).collect();
-    let n = n.as_dvec3();
-    let sum: f64 = (0..r.len())
-        .map(|i| {
-            let (a, b) = (r[i], r[(i + 1) % r.len()]);
-            let theta = a.dot(b).clamp(-1.0, 1.0).acos();
-            theta * n.dot(a.cross(b).normalize_or_zero())
-        })
-        .sum();
-    radiance * 0.5 * sum.abs()
-}
-
 /// Lambert's formula for the part of triangle `v` in front of the receiver's plane
 /// (the polygon clipped by it, Sutherland–Hodgman): `∫ L max(0, n·ω) dω` over it.
 fn clipped_lambert_irradiance(p: Vec3, n: Vec3, v: [Vec3; 3], radiance: f64) -> f64 {
@@ -590,33 +679,37 @@ fn clipped_lambert_irradiance(p: Vec3, n: Vec3, v: [Vec3; 3], radiance: f64) -> 
 /// triangle lies wholly above the receivers' tangent planes).
 #[test]
 fn irradiance_under_a_large_triangle_matches_lamberts_formula() {
-    let built = one_emitter();
+    // The receivers face the light: cos > 0 over all of it.
+    let receivers = [
+        Receiver {
+            p: Vec3::new(0.0, -0.2, 0.0),
+            n: Vec3::Y,
+        },
+        Receiver {
+            p: Vec3::new(0.3, -0.02, -0.1),
+            n: Vec3::Y,
+        },
+        Receiver {
+            p: Vec3::new(2.0, -0.5, 0.0),
+            n: Vec3::new(-1.0, 0.3, 0.0).normalize(),
+        },
+        Receiver {
+            p: Vec3::new(0.0, -30.0, 0.0),
+            n: Vec3::Y,
+        },
+    ];
+    irradiance_matches_lamberts_formula(&one_emitter(), &receivers, 40);
+}
+
+/// The light-sampling estimate of the irradiance from [`TRIANGLE`] (radiance 2) at each
+/// of `receivers` is Lambert's formula's, within four standard errors, for every
+/// sampler.
+fn irradiance_matches_lamberts_formula(built: &Built, receivers: &[Receiver], seed: u64) {
     for kind in LightSamplerKind::ALL {
-        let lights = sampler(&built, kind);
-        // The receivers face the light: cos > 0 over all of it.
-        for (seed, at) in [
-            Receiver {
-                p: Vec3::new(0.0, -0.2, 0.0),
-                n: Vec3::Y,
-            },
-            Receiver {
-                p: Vec3::new(0.3, -0.02, -0.1),
-                n: Vec3::Y,
-            },
-            Receiver {
-                p: Vec3::new(2.0, -0.5, 0.0),
-                n: Vec3::new(-1.0, 0.3, 0.0).normalize(),
-            },
-            Receiver {
-                p: Vec3::new(0.0, -30.0, 0.0),
-                n: Vec3::Y,
-            },
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        let lights = sampler(built, kind);
+        for (k, &at) in receivers.iter().enumerate() {
             let expected = lambert_irradiance(at.p, at.n, &TRIANGLE, 2.0);
-            let mut rng = Rng::seeded(40 + seed as u64);
+            let mut rng = Rng::seeded(seed + k as u64);
             let (estimate, sigma) = monte_carlo(200_000, || {
                 lights.sample(at, &mut rng).map_or(0.0, |s| {
                     f64::from(s.emission.x * s.dir.dot(at.n).max(0.0) / s.pdf)
@@ -634,7 +727,10 @@ fn irradiance_under_a_large_triangle_matches_lamberts_formula() {
 /// A sphere of emitters (a latitude-longitude mesh, facing inwards), each with its
 /// own radiance: seen from inside, `∫ L dω = Σ L_i Ω_i`, and with one radiance for all
 /// the irradiance is `π L` on any receiver.
-fn emitter_sphere(radiance: &dyn Fn(usize) -> f32) -> (Built, Vec<[Vec3; 3]>) {
+///
+/// Made `inside_out`, the triangles face away from the centre and emit from both
+/// faces: seen from inside, the same light from their backs.
+fn emitter_sphere(radiance: &dyn Fn(usize) -> f32, inside_out: bool) -> (Built, Vec<[Vec3; 3]>) {
     let (rings, segments) = (12, 24);
     let point = |i: usize, j: usize| {
         let theta = PI * i as f64 / rings as f64;
@@ -659,9 +755,9 @@ fn emitter_sphere(radiance: &dyn Fn(usize) -> f32) -> (Built, Vec<[Vec3; 3]>) {
                 if cross.length() < 1e-6 {
                     continue;
                 }
-                // Wound to face the centre.
+                // Wound to face the centre (or away, inside out).
                 let centroid = (t[0] + t[1] + t[2]) / 3.0;
-                triangles.push(if cross.dot(centroid) > 0.0 {
+                triangles.push(if (cross.dot(centroid) > 0.0) != inside_out {
                     [t[0], t[2], t[1]]
                 } else {
                     t
@@ -670,7 +766,10 @@ fn emitter_sphere(radiance: &dyn Fn(usize) -> f32) -> (Built, Vec<[Vec3; 3]>) {
         }
     }
     let materials = (0..triangles.len())
-        .map(|i| diffuse(Vec3::splat(0.5), Vec3::splat(radiance(i))))
+        .map(|i| Material {
+            two_sided_emission: inside_out,
+            ..diffuse(Vec3::splat(0.5), Vec3::splat(radiance(i)))
+        })
         .collect();
     let tris: Vec<([Vec3; 3], u32)> = triangles
         .iter()
@@ -680,11 +779,18 @@ fn emitter_sphere(radiance: &dyn Fn(usize) -> f32) -> (Built, Vec<[Vec3; 3]>) {
     (build(&tris, materials), triangles)
 }
 
+/// Facing the centre, and inside out with two-sided emitters seen from behind.
 #[test]
 fn a_sphere_of_emitters_gives_the_known_direct_light() {
+    for inside_out in [false, true] {
+        a_sphere_of_emitters_gives_the_known_direct_light_with(inside_out);
+    }
+}
+
+fn a_sphere_of_emitters_gives_the_known_direct_light_with(inside_out: bool) {
     let mixed = |i: usize| 10f32.powf(((i * 37) % 11) as f32 / 5.0 - 1.0);
-    let (built, triangles) = emitter_sphere(&mixed);
-    let (uniform, _) = emitter_sphere(&|_| 1.5);
+    let (built, triangles) = emitter_sphere(&mixed, inside_out);
+    let (uniform, _) = emitter_sphere(&|_| 1.5, inside_out);
     let receivers = [
         Receiver::at(Vec3::ZERO),
         Receiver {
@@ -728,7 +834,7 @@ fn a_sphere_of_emitters_gives_the_known_direct_light() {
             });
             assert!(
                 (estimate - expected).abs() < 4.0 * sigma + 1e-3 * expected,
-                "{kind:?} at {:?}: ∫L (cos) dω {estimate} ± {sigma} vs {expected}",
+                "{kind:?} at {:?}, inside out {inside_out}: ∫L (cos) dω {estimate} ± {sigma} vs {expected}",
                 at.p
             );
             // The choice probabilities sum to 1 here too.
@@ -783,7 +889,7 @@ fn the_default_is_the_bvh_from_a_measured_emitter_count() {
         assert_eq!(kind.resolve(100_000), kind);
     }
     let few = one_emitter();
-    let (many, _) = emitter_sphere(&|_| 1.0);
+    let (many, _) = emitter_sphere(&|_| 1.0, false);
     assert!(many.scene.emitters.len() >= BVH_MIN_EMITTERS);
     assert_eq!(LightSamplerKind::default(), LightSamplerKind::Auto);
     assert_eq!(

@@ -1,10 +1,11 @@
 //! Lights a scene places, against mathematics: a point light's inverse-square law (in
 //! W/sr and in candela at 683 lm/W), a spot's cut-off and its `KHR_lights_punctual`
 //! falloff, a sun's `E cos θ` (a delta light, and a disc of the same mean), area lights'
-//! inverse-square irradiance from their power and their radiance seen directly, the
-//! tessellation's error, every integrator agreeing on scenes of every kind of light,
+//! inverse-square irradiance from their power and their radiance seen directly, a
+//! two-sided quad lighting two parallel planes by the rectangle's form factor and
+//! splitting its power over both faces, the tessellation's error, every integrator agreeing on scenes of every kind of light,
 //! a closed room lit by a point light that conserves energy, and guiding staying
-//! unbiased; then scene files with every light type on both backends, their errors,
+//! unbiased (with a point light and a two-sided panel seen from behind); then scene files with every light type on both backends, their errors,
 //! and `ember info`'s list.
 
 mod common;
@@ -24,8 +25,8 @@ use ember::render::{render, scene_hash, train_guide, RenderSettings};
 use ember::sampling::{uniform_sphere, Rng};
 use ember::scene::{
     area_light_scene, compose, intensity_from_candela, irradiance_from_lux, AreaEmission,
-    AreaLight, AreaShape, Camera, CameraSettings, DirectionalLight, Environment, Light, Placement,
-    PointLight, Scene, SpotCone,
+    AreaLight, AreaShape, Camera, CameraSettings, DirectionalLight, Environment, Light, Material,
+    Placement, PointLight, Scene, SpotCone,
 };
 use glam::{Affine3A, DVec3, Quat, Vec3};
 
@@ -354,6 +355,7 @@ fn area_light(shape: AreaShape, emission: AreaEmission, centre: Vec3, facing: Ve
         ),
         colour: Vec3::ONE,
         emission,
+        two_sided: false,
     }
 }
 
@@ -433,6 +435,141 @@ fn an_area_light_seen_directly_has_its_stated_radiance() {
                 _ => Vec3::ZERO,
             };
             assert_eq!(back, expected, "{name} from above, {kind:?}");
+        }
+    }
+}
+
+/// The irradiance at distance `h` under a corner of an `a × b` rectangle of radiance
+/// `L` parallel to the receiver: `π L` times the form factor from a differential area to
+/// a parallel rectangle (Howell's catalogue, B-3),
+/// `L/2 [X/√(1+X²) atan(Y/√(1+X²)) + Y/√(1+Y²) atan(X/√(1+Y²))]`, `X = a/h`, `Y = b/h`.
+fn corner_irradiance(a: f64, b: f64, h: f64, radiance: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let (sx, sy) = ((1.0 + x * x).sqrt(), (1.0 + y * y).sqrt());
+    0.5 * radiance * (x / sx * (y / sx).atan() + y / sy * (x / sy).atan())
+}
+
+/// A floor at y = 0 facing up and a ceiling at y = 2h facing down (albedo
+/// [`ALBEDO`]), with a `width × depth` quad light of radiance `radiance` half-way,
+/// lighting the floor from its front (and the ceiling from its back when `two_sided`).
+fn between_planes(width: f32, depth: f32, h: f32, radiance: f32, two_sided: bool) -> Built {
+    let s = 50.0;
+    let y = 2.0 * h;
+    let mut planes = floor().to_vec();
+    planes.extend(quad(
+        Vec3::new(-s, y, -s),
+        Vec3::new(s, y, -s),
+        Vec3::new(s, y, s),
+        Vec3::new(-s, y, s),
+        0,
+    ));
+    let room = build(&planes, vec![diffuse(Vec3::splat(ALBEDO), Vec3::ZERO)]);
+    let light = AreaLight {
+        two_sided,
+        ..area_light(
+            AreaShape::Quad {
+                width,
+                height: depth,
+            },
+            AreaEmission::Radiance(radiance),
+            Vec3::new(0.0, h, 0.0),
+            -Vec3::Y,
+        )
+    };
+    let lights = area_light_scene(&[light], &["panel".to_owned()]);
+    let placements = [&room.scene, &lights].map(|scene| Placement {
+        scene,
+        transform: Affine3A::IDENTITY,
+    });
+    with_embree(compose(&placements))
+}
+
+/// A two-sided quad light of radiance `L` half-way between two parallel planes gives
+/// each, at points under it, the irradiance of the rectangle's form factor (the sum
+/// over the four rectangles the point's foot cuts it into), the ceiling from the
+/// light's back as the floor from its front: direct light only (depth 2), every
+/// integrator and light sampler. One-sided, the ceiling gets nothing.
+#[test]
+fn a_two_sided_quad_lights_both_parallel_planes_by_the_form_factor() {
+    let (width, depth, h, radiance) = (1.2f32, 0.8f32, 0.5f32, 3.0f32);
+    let two_sided = between_planes(width, depth, h, radiance, true);
+    let one_sided = between_planes(width, depth, h, radiance, false);
+    let runs = ALL
+        .iter()
+        .map(|&kind| (kind, LightSamplerKind::default()))
+        .chain([
+            (IntegratorKind::Mis, LightSamplerKind::SolidAngle),
+            (IntegratorKind::Mis, LightSamplerKind::Bvh),
+        ]);
+    for (kind, sampler) in runs {
+        for (x, z) in [(0.0f32, 0.0f32), (0.35, -0.2)] {
+            let (a, b) = (f64::from(width) / 2.0, f64::from(depth) / 2.0);
+            let (x64, z64) = (f64::from(x), f64::from(z));
+            let irradiance: f64 = [(a - x64, b - z64), (a + x64, b - z64)]
+                .into_iter()
+                .flat_map(|(w, d)| [(w, d), (w, 2.0 * b - d)])
+                .map(|(w, d)| corner_irradiance(w, d, f64::from(h), f64::from(radiance)))
+                .sum();
+            let expected = lambert(DVec3::splat(irradiance));
+            for (name, y, dir) in [("floor", 0.5 * h, -Vec3::Y), ("ceiling", 1.5 * h, Vec3::Y)] {
+                let label = format!("{kind:?}, {sampler:?}, {name} at ({x}, {z})");
+                let ray = Ray::new(Vec3::new(x, y, z), dir);
+                let tracer = |built: &Built| {
+                    let tracer = PathTracer::with_light_sampler(
+                        &built.scene,
+                        &built.accel,
+                        2,
+                        kind,
+                        sampler,
+                    );
+                    let mut count = RayCount::default();
+                    let mut sums = SampleSums::default();
+                    for i in 0..20_000 {
+                        let mut rng = Rng::for_sample(11, 0, i);
+                        sums.add(tracer.radiance(ray, &mut rng, &mut count));
+                    }
+                    sums
+                };
+                tracer(&two_sided).assert_mean(&label, expected);
+                let dark = tracer(&one_sided).mean_and_error().0;
+                match name {
+                    "ceiling" => assert_eq!(dark, DVec3::ZERO, "{label}, one-sided"),
+                    _ => assert!(dark.x > 0.0, "{label}, one-sided"),
+                }
+            }
+        }
+    }
+}
+
+/// A two-sided area light of power `P` splits it over both faces (`P = 2π A L`): from
+/// afar each side gets half the irradiance a one-sided light of that power gives its
+/// lit side, `P / (2π D²)`.
+#[test]
+fn a_two_sided_area_light_splits_its_power_over_both_faces() {
+    let (power, distance) = (40.0f32, 8.0f32);
+    for (name, shape) in &SHAPES[..2] {
+        for facing in [-Vec3::Y, Vec3::Y] {
+            let centre = Vec3::new(0.1, distance, -0.2);
+            let light = AreaLight {
+                two_sided: true,
+                ..area_light(*shape, AreaEmission::Power(power), centre, facing)
+            };
+            let emitted = light.power().x;
+            assert!((emitted / power - 1.0).abs() < 1e-5, "{name}: {emitted}");
+            let expected_radiance = power / (2.0 * std::f32::consts::PI * light.area());
+            assert!((light.radiance().x / expected_radiance - 1.0).abs() < 1e-5);
+            let built = floor_with(&[light]);
+            let irradiance = f64::from(power) / (2.0 * PI * f64::from(distance).powi(2));
+            let mut sums = SampleSums::default();
+            for got in floor_radiance(&built, IntegratorKind::Mis, 0.1, -0.2, 20_000) {
+                sums.add(got);
+            }
+            let (mean, sigma) = sums.mean_and_error();
+            let expected = lambert(DVec3::splat(irradiance));
+            assert!(
+                (mean.x - expected.x).abs() < 4.0 * sigma.x + 5e-3 * expected.x,
+                "{name} facing {facing}: {mean} ± {sigma}, expected {expected}"
+            );
         }
     }
 }
@@ -561,6 +698,25 @@ fn every_integrator_agrees_with_a_point_light_and_an_area_light() {
     integrators_agree("point and quad", &[panel], vec![point], None);
 }
 
+/// Lit only by a two-sided panel that faces away (up, to an empty sky), the room and
+/// the point the rays leave from see its back: every integrator agrees there too.
+#[test]
+fn every_integrator_agrees_with_a_two_sided_light_seen_from_behind() {
+    let panel = AreaLight {
+        two_sided: true,
+        ..area_light(
+            AreaShape::Quad {
+                width: 0.6,
+                height: 0.4,
+            },
+            AreaEmission::Power(12.0),
+            Vec3::new(0.5, 1.8, -0.6),
+            Vec3::new(0.3, 1.0, -0.2).normalize(),
+        )
+    };
+    integrators_agree("two-sided panel from behind", &[panel], vec![], None);
+}
+
 #[test]
 fn every_integrator_agrees_with_spots_suns_disks_spheres_and_a_sky() {
     let disk = area_light(
@@ -643,27 +799,65 @@ fn a_point_light_in_a_closed_room_conserves_energy() {
     }
 }
 
+/// The walls of the box `[-1, 1]³` facing inwards, of material 0, with a hole in the
+/// ceiling over x, z ∈ [0, 0.25).
+fn box_with_a_hole() -> Vec<([Vec3; 3], u32)> {
+    let hole = |t: &[Vec3; 3]| {
+        let c = (t[0] + t[1] + t[2]) / 3.0;
+        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
+    };
+    inward_cube(8, 0)
+        .into_iter()
+        .filter(|(t, _)| !hole(t))
+        .collect()
+}
+
 /// A box lit only through a hole in its ceiling by a point light above the hole: the
 /// guide learns the way in (where light samples from inside are blocked), and the
 /// guided image converges to the unguided one (relMSE against an unguided reference
 /// falls like 1/spp), with the same mean.
 #[test]
 fn guiding_with_a_point_light_renders_the_unguided_image() {
-    let cells = 8;
-    let hole = |t: &[Vec3; 3]| {
-        let c = (t[0] + t[1] + t[2]) / 3.0;
-        c.y > 0.999 && (0.0..0.25).contains(&c.x) && (0.0..0.25).contains(&c.z)
-    };
-    let walls: Vec<_> = inward_cube(cells, 0)
-        .into_iter()
-        .filter(|(t, _)| !hole(t))
-        .collect();
-    let mut built = build(&walls, vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)]);
+    let mut built = build(
+        &box_with_a_hole(),
+        vec![diffuse(Vec3::splat(0.5), Vec3::ZERO)],
+    );
     built.scene.lights = vec![Light::Point(PointLight {
         position: Vec3::new(0.125, 1.4, 0.125),
         intensity: Vec3::splat(3.0),
         spot: None,
     })];
+    guiding_renders_the_unguided_image("a point light", &built);
+}
+
+/// The same box lit through the hole by a two-sided panel above it that faces up, away
+/// from it: the light the guide learns comes from the panel's back.
+#[test]
+fn guiding_with_a_two_sided_light_seen_from_behind_renders_the_unguided_image() {
+    let y = 1.4;
+    let mut triangles = box_with_a_hole();
+    // Counter-clockwise seen from above: its front faces up, away from the box.
+    triangles.extend(quad(
+        Vec3::new(0.0, y, 0.0),
+        Vec3::new(0.0, y, 0.25),
+        Vec3::new(0.25, y, 0.25),
+        Vec3::new(0.25, y, 0.0),
+        1,
+    ));
+    let panel = Material {
+        two_sided_emission: true,
+        ..diffuse(Vec3::ZERO, Vec3::splat(48.0))
+    };
+    let built = build(
+        &triangles,
+        vec![diffuse(Vec3::splat(0.5), Vec3::ZERO), panel],
+    );
+    guiding_renders_the_unguided_image("a two-sided panel", &built);
+}
+
+/// Renders of the box of `built` from inside, guided at 64 and 256 spp, against an
+/// unguided one of 8192: see the tests above.
+fn guiding_renders_the_unguided_image(label: &str, built: &Built) {
     let size = 24;
     let camera: Camera = CameraSettings {
         eye: Vec3::new(0.0, 0.2, 0.9),
@@ -727,14 +921,17 @@ fn guiding_with_a_point_light_renders_the_unguided_image() {
     let ((low, _), (high, high_mean)) = (error(64), error(256));
     let reference_mean = mean(&reference);
     eprintln!(
-        "guided with a point light: relMSE {low:.3e} at 64 spp, {high:.3e} at 256; mean {high_mean} against {reference_mean}"
+        "guided with {label}: relMSE {low:.3e} at 64 spp, {high:.3e} at 256; mean {high_mean} against {reference_mean}"
     );
     assert!(reference_mean > 0.0);
     assert!(
         high < low / 2.5,
-        "relMSE {low:.3e} at 64 spp, {high:.3e} at 256"
+        "{label}: relMSE {low:.3e} at 64 spp, {high:.3e} at 256"
     );
-    assert!((high_mean / reference_mean - 1.0).abs() < 0.02);
+    assert!(
+        (high_mean / reference_mean - 1.0).abs() < 0.02,
+        "{label}: mean {high_mean} against {reference_mean}"
+    );
 }
 
 /// A scene placed by instances places its lights with it: each placement moves a point
@@ -910,6 +1107,14 @@ direction = [0, -1, 0]
 radiance = 2
 
 [[light]]
+type = "quad"
+size = [0.4, 0.4]
+translate = [2, 1, -2]
+direction = [0, 1, 0]
+two-sided = true
+power = 4
+
+[[light]]
 type = "sphere"
 radius = 0.2
 translate = [0, 0.5, 2]
@@ -930,8 +1135,8 @@ color = [1, 0.5, 0.2]
         "the backends differ: relMSE {}",
         error.rel_mse
     );
-    // The suns light all of the floor; only the backs of the quad and the disk,
-    // which reflect nothing, are black.
+    // The suns light all of the floor; only the backs of the one-sided quad and the
+    // disk, which reflect nothing, are black (the two-sided quad has none).
     let dark = embree
         .pixels
         .iter()
@@ -942,14 +1147,15 @@ color = [1, 0.5, 0.2]
     let stdout = String::from_utf8_lossy(&info.stdout);
     assert!(info.status.success(), "{stdout}");
     for line in [
-        "7 placed lights",
+        "8 placed lights",
         "light 1: point at (0, 1, 0): intensity 1 W/sr (power 12.5664 W)",
         "light \"key\": spot at (2, 2, 0) shining along (0, -1, 0), cone 10° to 20°",
         "light 3: directional, shining along (0.4472, -0.8944, 0), a disc 0.53° across: irradiance 0.05 W/m²",
         "light 4: directional, shining along (0, -0.866, -0.5), a delta light: irradiance 0.0293 W/m²",
         "light 5: quad 1×0.5 at (-2, 1, 0) lighting along (0, -1, 0): radiance 3.1831 W/m²/sr (power 5 W",
         "light 6: disk of radius 0.3 at (-2, 1, 2) lighting along (0, -1, 0): radiance 2 W/m²/sr",
-        "light 7: sphere of radius 0.2 at (0, 0.5, 2): radiance",
+        "light 7: quad 0.4×0.4 at (2, 1, -2) lighting both sides of (0, 1, 0): radiance 3.9789 W/m²/sr (power 4 W",
+        "light 8: sphere of radius 0.2 at (0, 0.5, 2): radiance",
     ] {
         assert!(stdout.contains(line), "`ember info` lacks {line:?}:\n{stdout}");
     }
@@ -969,6 +1175,7 @@ fn scene_file_light_errors_name_the_key() {
         ("[[light]]\ntype = \"spot\"\nintensity = 1\nouter-angle = 120\n", "13:15: light.outer-angle: must be an angle in degrees above 0 and at most 90"),
         ("[[light]]\ntype = \"spot\"\nintensity = 1\nouter-angle = 20\ninner-angle = 30\n", "14:15: light.inner-angle: must be an angle in degrees from 0 to outer-angle"),
         ("[[light]]\ntype = \"point\"\nintensity = 1\nradius = 2\n", "13:10: light.radius: a point light takes no radius"),
+        ("[[light]]\ntype = \"sphere\"\nradius = 1\npower = 1\ntwo-sided = true\n", "14:13: light.two-sided: a sphere light takes no two-sided"),
         ("[[light]]\ntype = \"directional\"\nirradiance = 1\ntranslate = [0, 1, 0]\n", "13:13: light.translate: a directional light takes no translate"),
         ("[[light]]\ntype = \"spot\"\nintensity = 1\nouter-angle = 20\ndirection = [0, -1, 0]\nrotate = { axis = [1, 0, 0], degrees = 3 }\n", "14:13: light.direction: give either direction or rotate, not both"),
         ("[[light]]\ntype = \"quad\"\nradiance = 1\n", "10:1: light.size: a quad light needs size"),

@@ -211,7 +211,8 @@ fn packets_answer_as_single_rays() {
 }
 
 /// What the engine does not render yet is named, not rendered wrongly: the glossy box
-/// (GGX lobes) and the CLI flags it cannot honour are refused in one line each.
+/// (GGX lobes), placed lights, two-sided emitters and the CLI flags it cannot honour are
+/// refused in one line each.
 #[test]
 fn what_it_does_not_render_yet_is_refused_in_one_line() {
     let glossy = load_obj(&repo("meshes/CornellBox-GlossyMix.obj"))
@@ -228,6 +229,12 @@ fn what_it_does_not_render_yet_is_refused_in_one_line() {
     }));
     let reason = LaneScene::new(&lit).unwrap_err();
     assert!(reason.contains("lights"), "{reason}");
+    let mut two_sided = cornell();
+    for m in &mut two_sided.materials {
+        m.two_sided_emission = m.is_emissive();
+    }
+    let reason = LaneScene::new(&two_sided).unwrap_err();
+    assert!(reason.contains("two-sided emitters"), "{reason}");
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("out.exr");
     let out = out.to_str().unwrap();

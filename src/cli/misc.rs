@@ -259,6 +259,9 @@ fn describe(m: &Material) -> String {
     }
     if m.is_emissive() {
         s += &format!(", emits Ke {}", rgb(m.emission));
+        if m.two_sided_emission {
+            s += " from both faces";
+        }
     }
     s
 }
@@ -268,15 +271,16 @@ fn print_lights(loaded: &LoadedScene) {
     let scene = &loaded.scene;
     let lights = scene.light_mesh();
     // Per emitting material: triangles, area, and power (π · area · luminance of Ke,
-    // the flux of a one-sided diffuse emitter; a map_Ke scales it further).
+    // the flux of each emitting face of a diffuse emitter; a map_Ke scales it further).
     let mut by_material: Vec<(u32, usize, f64, f64)> = Vec::new();
     for &t in &scene.emitters {
         let [a, b, c] = lights.vertices(t);
         let area = 0.5 * f64::from((b - a).cross(c - a).length());
         let m = lights.material[t as usize];
-        let ke = scene.materials[m as usize].emission;
-        let luminance = f64::from(ke.dot(Vec3::new(0.2126, 0.7152, 0.0722)));
-        let power = std::f64::consts::PI * area * luminance;
+        let material = &scene.materials[m as usize];
+        let luminance = f64::from(material.emission.dot(Vec3::new(0.2126, 0.7152, 0.0722)));
+        let faces = f64::from(material.emitting_faces());
+        let power = std::f64::consts::PI * area * luminance * faces;
         match by_material.iter_mut().find(|e| e.0 == m) {
             Some(e) => (e.1, e.2, e.3) = (e.1 + 1, e.2 + area, e.3 + power),
             None => by_material.push((m, 1, area, power)),
@@ -289,9 +293,14 @@ fn print_lights(loaded: &LoadedScene) {
         if by_material.len() == 1 { "" } else { "s" }
     );
     for (m, count, area, power) in &by_material {
+        let material = &scene.materials[*m as usize];
+        let faces = match material.two_sided_emission {
+            true => " x 2 faces",
+            false => "",
+        };
         println!(
-            "  {:?}: {count} triangles, area {area:.4}, power {power:.4} (pi x area x luminance of Ke)",
-            scene.materials[*m as usize].name
+            "  {:?}: {count} triangles, area {area:.4}, power {power:.4} (pi x area x luminance of Ke{faces})",
+            material.name
         );
     }
     println!("sky: {}", loaded.sky);

@@ -522,8 +522,8 @@ impl<'a, A: Accel> PathTracer<'a, A> {
     }
 
     /// Emission of the surface at `hit` towards a ray travelling along `dir`, weighted
-    /// as decided where the ray was chosen. Lights are one-sided: they emit on the side
-    /// of their winding normal.
+    /// as decided where the ray was chosen. Lights emit on the side of their winding
+    /// normal, or on both where their material is two-sided.
     #[inline]
     fn emission(
         &self,
@@ -533,7 +533,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
         how: EmissionWeight<'_>,
     ) -> Vec3 {
         let material = self.scene.material(surface);
-        if !material.is_emissive() || dir.dot(surface.ng) >= 0.0 {
+        if !material.is_emissive() || !material.emits_along(dir, surface.ng) {
             return Vec3::ZERO;
         }
         self.scene.emitted(surface)

@@ -4,6 +4,14 @@
 //! their power, and their emitting directions (a cone of normals; one-sided triangles
 //! emit within 90° of theirs).
 //!
+//! A two-sided emitter keeps its one cone and a flag that mirrors it, as pbrt-v4's
+//! `LightBounds::twoSided` does: the importance measures the angle to the nearer of
+//! the axis and its reverse, and the plane test that culls the back half-space is off.
+//! Two one-sided entries per emitter would keep the cones tight too, but then choosing
+//! the emitter has two paths through the tree, and its probability (which `pdf_hit`
+//! needs for every BSDF ray that meets it) two walks; the flag keeps one trail, so the
+//! probability stays a single walk and exact to the bit.
+//!
 //! Sampling descends from the root, choosing each child with probability proportional
 //! to its [importance](LightBounds::importance) at the receiver, so that one draw
 //! costs O(depth) and allocates nothing. The probability of any emitter is the product
@@ -49,6 +57,9 @@ pub struct LightBounds {
     /// Cosine of that cone's half-angle (−1: every direction).
     pub cos_theta: f32,
     pub power: f32,
+    /// Whether the emitters may emit on the back of their normals too, so that the
+    /// cone holds each normal or its reverse.
+    pub two_sided: bool,
 }
 
 impl LightBounds {
@@ -61,6 +72,16 @@ impl LightBounds {
             axis: normal,
             cos_theta: 1.0,
             power,
+            two_sided: false,
+        }
+    }
+
+    /// These bounds for emitters that emit from both faces (`power` their power from
+    /// both).
+    pub fn two_sided(self) -> Self {
+        LightBounds {
+            two_sided: true,
+            ..self
         }
     }
 
@@ -73,6 +94,7 @@ impl LightBounds {
             axis,
             cos_theta,
             power: self.power + other.power,
+            two_sided: self.two_sided || other.two_sided,
         }
     }
 
@@ -89,15 +111,17 @@ impl LightBounds {
     /// - every emitter point lies in the box's bounding sphere, which `p` sees within
     ///   the angle θ_b of its centre, so the angle between an emitter normal and the
     ///   direction to `p` is at least `θ_w − θ_o − θ_b` (θ_w: between the cone's axis
-    ///   and the direction from the centre to `p`; θ_o: the cone's half-angle), and
-    ///   one-sided emitters send nothing beyond 90°; likewise the receiver takes
+    ///   and the direction from the centre to `p`, or its reverse where that is nearer
+    ///   and the emitters are two-sided; θ_o: the cone's half-angle), and emitters
+    ///   send nothing beyond 90° of their emitting face; likewise the receiver takes
     ///   nothing from beyond 90° of its normal;
     /// - the plane tests, which need no sphere and so hold where `p` is inside it (a
     ///   desk's lamps seen from the desk, a wall's from the wall): an emitter at `q`
     ///   with normal `m` lights `p` only if `(p − q)·m > 0`, and over the box and the
     ///   cone that is at most `(p − c)·a + Σ|a_k| h_k + sin θ_o · (|p − c| + r)` (`c`,
     ///   `h`: the box's centre and half extent; `a`: the cone's axis; `r`: the
-    ///   sphere's radius), exact for coplanar emitters; and the receiver takes light
+    ///   sphere's radius), exact for coplanar emitters (two-sided ones pass: they
+    ///   light both sides of their plane); and the receiver takes light
     ///   from `q` only if `(q − p)·n > 0`, at most `(c − p)·n + Σ|n_k| h_k` over the box.
     ///
     /// Where `p` is in front of every emitter's plane but close to them, the estimate
@@ -111,7 +135,8 @@ impl LightBounds {
     }
 
     /// The surface area orientation heuristic's cost of these bounds: power, times the
-    /// measure of the cone of emitted directions, times the box's surface area.
+    /// measure of the cone of emitted directions (twice it when mirrored, at most the
+    /// whole sphere's), times the box's surface area.
     fn cost(&self) -> f32 {
         let theta_o = self.cos_theta.clamp(-1.0, 1.0).acos();
         let theta_w = (theta_o + FRAC_PI_2).min(PI);
@@ -120,6 +145,10 @@ impl LightBounds {
             + FRAC_PI_2
                 * (2.0 * theta_w * sin_o - (theta_o - 2.0 * theta_w).cos() - 2.0 * theta_o * sin_o
                     + cos_o);
+        let m_omega = match self.two_sided {
+            true => (2.0 * m_omega).min(4.0 * PI),
+            false => m_omega,
+        };
         let d = (self.hi - self.lo).max(Vec3::ZERO);
         let area = 2.0 * (d.x * d.y + d.y * d.z + d.z * d.x);
         self.power * m_omega * area
@@ -164,6 +193,8 @@ struct Lanes {
     axis_reach: Vec4,
     cos_o: Vec4,
     sin_o: Vec4,
+    /// 1 in the lanes of two-sided bounds (their cone mirrored), else 0.
+    two_sided: Vec4,
     power: Vec4,
     /// Rounding allowance of the plane tests: a few ulps of the box's coordinates.
     slack: Vec4,
@@ -204,6 +235,7 @@ impl Lanes {
         axis_reach: Vec4::ZERO,
         cos_o: Vec4::ONE,
         sin_o: Vec4::ZERO,
+        two_sided: Vec4::ZERO,
         power: Vec4::ZERO,
         slack: Vec4::ZERO,
     };
@@ -223,6 +255,7 @@ impl Lanes {
         self.radius[lane] = self.radius_squared[lane].sqrt();
         self.cos_o[lane] = b.cos_theta;
         self.sin_o[lane] = (1.0 - b.cos_theta * b.cos_theta).max(0.0).sqrt();
+        self.two_sided[lane] = f32::from(u8::from(b.two_sided));
         self.power[lane] = b.power;
     }
 
@@ -252,7 +285,10 @@ impl Lanes {
         // the plane tests.
         let along = self.axis[0] * to_p[0] + self.axis[1] * to_p[1] + self.axis[2] * to_p[2];
         let facing = to_p[0] * n.x + to_p[1] * n.y + to_p[2] * n.z;
-        let cos_w = (along * inverse_d).clamp(-Vec4::ONE, Vec4::ONE);
+        // A mirrored cone: θ_w from the nearer of the axis and its reverse.
+        let two_sided = self.two_sided.cmpgt(Vec4::ZERO);
+        let cone_along = Vec4::select(two_sided, along.abs(), along);
+        let cos_w = (cone_along * inverse_d).clamp(-Vec4::ONE, Vec4::ONE);
         let sin_w = sqrt4((Vec4::ONE - cos_w * cos_w).max(Vec4::ZERO));
         let x = cos_sin_clamped_difference((cos_w, sin_w), (self.cos_o, self.sin_o));
         let (cos_emit, _) = cos_sin_clamped_difference(x, (cos_b, sin_b));
@@ -271,7 +307,11 @@ impl Lanes {
         // receiver without a normal has `n_abs = 0`, `facing = 0`: it passes.
         let slack = self.slack + Vec4::splat(q.slack);
         let reach = self.sin_o * (d2 * inverse_d + self.radius);
-        let emits = (along + self.axis_reach + reach).cmpgt(-slack) | self.cos_o.cmple(Vec4::ZERO);
+        // Two-sided emitters light both half-spaces: only their plane is dark, and the
+        // slack admits it anyway.
+        let emits = (along + self.axis_reach + reach).cmpgt(-slack)
+            | self.cos_o.cmple(Vec4::ZERO)
+            | two_sided;
         let above =
             self.half[0] * q.n_abs.x + self.half[1] * q.n_abs.y + self.half[2] * q.n_abs.z - facing;
         // NaN (an empty lane at its own centre) and ∞ (p on a point light) say nothing.

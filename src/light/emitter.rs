@@ -2,9 +2,15 @@
 //! uniformly in solid angle (warped by the receiver's cosine) where the triangle is
 //! neither tiny nor huge as seen from there, else a uniform point on its area.
 //!
+//! A two-sided emitter (glTF's `doubleSided`) emits from both faces: a receiver behind
+//! it sees the same triangle with its normal reversed, and every density below takes
+//! `|cos α|`. Neither Arvo's map nor area sampling depends on the winding, so the
+//! strategies serve either face unchanged.
+//!
 //! The rule, a pure function of the receiver and the triangle so that the density of
 //! any direction is that of the strategy that would have drawn it:
-//! - the receiver is behind the emitting side: nothing (density 0);
+//! - the receiver is behind the emitting side (of a one-sided emitter): nothing
+//!   (density 0);
 //! - area sampling's density, `d² / (cos α · A) = d³ / (h · A)` at distance `d` from a
 //!   receiver at height `h` over the plane, varies over the triangle by less than a
 //!   factor 64, by the bound `(d_max / h)³`: area sampling. It costs a fraction of
@@ -59,8 +65,10 @@ impl Receiver {
 #[derive(Clone, Copy, Debug)]
 pub struct Emitter {
     pub vertices: [Vec3; 3],
-    /// Unit normal of the emitting side (counter-clockwise winding).
+    /// Unit normal of the counter-clockwise side, the one that emits (both do where
+    /// `two_sided`).
     pub normal: Vec3,
+    pub two_sided: bool,
     pub emission: Vec3,
     pub area: f32,
     /// Density per unit area of the whole light sampler's area sampling on this
@@ -99,7 +107,8 @@ struct SeenFrom {
     dir: Vec3,
     distance_squared: f32,
     distance: f32,
-    /// Cosine between the emitting normal and the direction back to the receiver (> 0).
+    /// Cosine between the emitting face's normal and the direction back to the
+    /// receiver (> 0).
     cos_light: f32,
 }
 
@@ -110,7 +119,15 @@ enum Strategy {
 }
 
 impl Emitter {
-    pub fn new(vertices: [Vec3; 3], emission: Vec3, map: u32, uvs: [Vec2; 3]) -> Self {
+    /// The triangle `vertices` emitting `emission` (times texture `map` at `uvs`) from
+    /// its counter-clockwise face, or from both when `two_sided`.
+    pub fn new(
+        vertices: [Vec3; 3],
+        emission: Vec3,
+        map: u32,
+        uvs: [Vec2; 3],
+        two_sided: bool,
+    ) -> Self {
         let [a, b, c] = vertices;
         let cross = (b - a).cross(c - a);
         let center = (a + b + c) / 3.0;
@@ -121,6 +138,7 @@ impl Emitter {
         Emitter {
             vertices,
             normal: cross.normalize_or_zero(),
+            two_sided,
             emission,
             area: 0.5 * cross.length(),
             area_density: 0.0,
@@ -137,10 +155,23 @@ impl Emitter {
         self.faces(at.p) && matches!(self.strategy(at), Strategy::SolidAngle(..))
     }
 
-    /// Whether `p` is on the emitting side of the triangle's plane.
+    /// Whether `p` is on an emitting side of the triangle's plane.
     #[inline]
     fn faces(&self, p: Vec3) -> bool {
-        (p - self.vertices[0]).dot(self.normal) > 0.0
+        let h = (p - self.vertices[0]).dot(self.normal);
+        h > 0.0 || (self.two_sided && h < 0.0)
+    }
+
+    /// The cosine between the face that unit `dir` (towards the triangle) meets and
+    /// the way back, when that face emits; 0 or less where it does not.
+    #[inline]
+    fn cos_light(&self, dir: Vec3) -> f32 {
+        let cos = -dir.dot(self.normal);
+        if self.two_sided {
+            cos.abs()
+        } else {
+            cos
+        }
     }
 
     #[inline]
@@ -236,7 +267,7 @@ impl Emitter {
             return None;
         }
         let dir = to_light / distance;
-        let cos_light = -dir.dot(self.normal);
+        let cos_light = self.cos_light(dir);
         if cos_light.is_nan() || cos_light <= 0.0 {
             return None;
         }
@@ -267,10 +298,10 @@ impl Emitter {
     }
 
     /// The whole sampler's solid-angle density of area sampling along unit `dir`,
-    /// whose ray meets the triangle at `distance` (0 from behind).
+    /// whose ray meets the triangle at `distance` (0 from behind a one-sided one).
     #[inline]
     pub fn area_pdf(&self, dir: Vec3, distance: f32) -> f32 {
-        let cos_light = -dir.dot(self.normal);
+        let cos_light = self.cos_light(dir);
         if cos_light > 0.0 {
             self.area_density * distance * distance / cos_light
         } else {
@@ -279,10 +310,11 @@ impl Emitter {
     }
 
     /// The solid-angle density with which [`sample`](Self::sample) draws unit `dir`
-    /// from `at`, whose ray meets the triangle at `distance` (0 from behind).
+    /// from `at`, whose ray meets the triangle at `distance` (0 from behind a
+    /// one-sided one).
     #[inline]
     pub fn density(&self, at: Receiver, dir: Vec3, distance: f32) -> f32 {
-        let cos_light = -dir.dot(self.normal);
+        let cos_light = self.cos_light(dir);
         if cos_light.is_nan() || cos_light <= 0.0 || !self.faces(at.p) {
             return 0.0;
         }

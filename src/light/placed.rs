@@ -52,6 +52,7 @@ pub fn point_bounds(light: &PointLight) -> LightBounds {
         axis,
         cos_theta,
         power: point_weight(light),
+        two_sided: false,
     }
 }
 

@@ -20,8 +20,13 @@
 //! is where a ray hits it, so next-event estimation and emission found by BSDF rays
 //! agree; only the choice of triangle uses the texture's mean.
 //!
-//! Emitters are one-sided: they emit on the side their counter-clockwise normal points
-//! to. A point seen from behind has density 0: it is never a useful light sample.
+//! Emitters are one-sided unless their material says otherwise: they emit on the side
+//! their counter-clockwise normal points to, and a point seen from behind has density
+//! 0 (it is never a useful light sample). A two-sided emitter (glTF's `doubleSided`,
+//! a scene file's `two_sided` light) emits from both faces: its power `2π A L` doubles
+//! its weight in the choice, every density takes `|cos|` at the emitter, and the light
+//! BVH mirrors its orientation cone (see [`super::bvh`]), so that
+//! [`pdf_hit`](LightSampler::pdf_hit) stays the exact density of either side.
 //!
 //! The scene's point and spot lights are chosen with the emitters, after them in the
 //! same table or tree; its suns with the sky, the two together chosen against the rest
@@ -124,8 +129,8 @@ pub struct LightSampler {
     sun_ids: Vec<u32>,
     /// Over the emitters and point lights; `None` when none has power.
     choice: Option<Choice>,
-    /// `π Σ A·lum(Ke)` over the emitters and `lum(Φ)` over the point lights: their
-    /// power, weighed against the sky's and the suns'.
+    /// `π Σ A·lum(Ke)` over the emitters (twice that for two-sided ones) and `lum(Φ)`
+    /// over the point lights: their power, weighed against the sky's and the suns'.
     power: f32,
     /// Where the emitters are and which way they face, to tell cheaply which points
     /// no emitter can light (see [`may_light`](Self::may_light)).
@@ -225,7 +230,9 @@ impl EmitterBounds {
             .iter()
             .map(|e| e.normal.dot(axis))
             .fold(1.0f32, f32::min);
-        if axis == Vec3::ZERO || emitters.is_empty() || cos_theta <= 0.0 {
+        // A two-sided emitter lights both half-spaces: only its plane stays dark.
+        let two_sided = emitters.iter().any(|e| e.two_sided);
+        if axis == Vec3::ZERO || emitters.is_empty() || cos_theta <= 0.0 || two_sided {
             return EmitterBounds::default();
         }
         // A little slack so that rounding never culls a point that is lit.
@@ -399,14 +406,16 @@ impl LightSampler {
                     m.emission,
                     m.maps.emission.unwrap_or(NO_MAP),
                     mesh.corner_uvs(t),
+                    m.two_sided_emission,
                 )
             })
             .collect();
         let weights: Vec<f32> = prims
             .iter()
             .map(|&t| {
-                let mean = material(t).emission * mean_of(material(t).maps.emission);
-                mesh.area(t) * luminance(mean).max(0.0)
+                let m = material(t);
+                let mean = m.emission * mean_of(m.maps.emission);
+                mesh.area(t) * luminance(mean).max(0.0) * m.emitting_faces()
             })
             .chain(points.iter().map(|p| point_weight(p).max(0.0)))
             .collect();
@@ -419,7 +428,14 @@ impl LightSampler {
                 let bounds: Vec<LightBounds> = emitters
                     .iter()
                     .zip(&weights)
-                    .map(|(e, &w)| LightBounds::triangle(e.vertices, e.normal, w))
+                    .map(|(e, &w)| {
+                        let bounds = LightBounds::triangle(e.vertices, e.normal, w);
+                        if e.two_sided {
+                            bounds.two_sided()
+                        } else {
+                            bounds
+                        }
+                    })
                     .chain(points.iter().map(point_bounds))
                     .collect();
                 LightBvh::new(&bounds).map(Choice::Bvh)
@@ -563,9 +579,10 @@ impl LightSampler {
     }
 
     /// Whether some emitter might light point `p`, that is have `p` on its emitting
-    /// side. `false` is certain: every emitter faces away from `p`, so light samples
-    /// from there are worthless and the integrators skip them. (Exact for the
-    /// Cornell box, whose ceiling lies behind its light.)
+    /// side (any point, with a two-sided emitter). `false` is certain: every emitter
+    /// faces away from `p`, so light samples from there are worthless and the
+    /// integrators skip them. (Exact for the Cornell box, whose ceiling lies behind its
+    /// one-sided light.)
     ///
     /// Conservative test in O(1): `p` may be lit by an emitter point `q` with normal
     /// `n` when `(p − q) · n > 0`. Over `q` in the emitters' box and `n` in their

@@ -254,6 +254,7 @@ impl Fingerprint {
             maps,
             opacity,
             opacity_map,
+            two_sided_emission,
         } = m;
         let id = |t: Option<u32>| t.map_or(u32::MAX, |t| t);
         let MaterialMaps {
@@ -300,6 +301,10 @@ impl Fingerprint {
         if !m.is_opaque() {
             self.f32s([*opacity]);
             self.u32s([opacity_map.map_or(u32::MAX, |t| t)]);
+        }
+        // Only two-sided emission is hashed, so that one-sided scenes keep theirs.
+        if *two_sided_emission {
+            self.u32s([u32::from(*two_sided_emission)]);
         }
         self.vec3s([diffuse, specular, emission]);
         self.u32s([diffuse_texture.map_or(u32::MAX, |t| t)]);

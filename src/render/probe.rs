@@ -102,9 +102,10 @@ fn reaches_light<A: Accel>(
         let b = [1.0 - b1 - b2, b1, b2];
         let q = b[0] * corners[0] + b[1] * corners[1] + b[2] * corners[2];
         let n = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-        // Emitters light their counter-clockwise side, and the point must see it from
-        // the side the camera sees.
-        if n.dot(at.p - q) <= 0.0 || (q - at.p).dot(at.ng) * facing <= 0.0 {
+        let material = &scene.materials[lights.material[emitter as usize] as usize];
+        // Emitters light their counter-clockwise side (or both), and the point must
+        // see it from the side the camera sees.
+        if !material.emits_along(q - at.p, n) || (q - at.p).dot(at.ng) * facing <= 0.0 {
             return false;
         }
         let to = SurfaceOrigin {

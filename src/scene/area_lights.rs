@@ -3,9 +3,10 @@
 //! (the light sampler and its BVH, MIS, path guiding, both accelerators, shards).
 //!
 //! Each emits uniform radiance from one side, Lambertian: a quad or a disk from the
-//! side its local −z points to, a sphere outwards. Given a power `P` instead, the
-//! radiance is `P / (π A)` for the tessellated area `A` in the world, so that the
-//! triangles send out exactly `P`: a disk is a fan of [`DISK_SEGMENTS`] triangles
+//! side its local −z points to (from both sides when two-sided), a sphere outwards.
+//! Given a power `P` instead, the radiance is `P / (π A)` for the tessellated area `A`
+//! in the world (`P / (2π A)` two-sided: the power is split over both faces), so that
+//! the triangles send out exactly `P`: a disk is a fan of [`DISK_SEGMENTS`] triangles
 //! inscribed in its circle, a sphere a subdivided icosahedron inscribed in it
 //! ([`SPHERE_SUBDIVISIONS`]); their areas fall short of `πr²` and `4πr²` by 0.04% and
 //! 0.5% (`tests/lights.rs` bounds the error). A light reflects nothing: its material
@@ -40,7 +41,8 @@ pub enum AreaShape {
 pub enum AreaEmission {
     /// W/m²/sr.
     Radiance(f32),
-    /// W, all it sends out: `π A L` for area `A` and radiance `L`.
+    /// W, all it sends out: `π A L` for area `A` and radiance `L` (`2π A L` when
+    /// two-sided).
     Power(f32),
 }
 
@@ -51,6 +53,8 @@ pub struct AreaLight {
     pub transform: Affine3A,
     pub colour: Vec3,
     pub emission: AreaEmission,
+    /// Whether a quad or a disk lights both sides (a sphere is never two-sided).
+    pub two_sided: bool,
 }
 
 impl AreaLight {
@@ -92,13 +96,22 @@ impl AreaLight {
     pub fn radiance(&self) -> Vec3 {
         match self.emission {
             AreaEmission::Radiance(l) => l * self.colour,
-            AreaEmission::Power(p) => p / (PI * self.area()) * self.colour,
+            AreaEmission::Power(p) => p / (self.faces() * PI * self.area()) * self.colour,
         }
     }
 
-    /// Power per channel, W: `π A L`.
+    /// Power per channel, W: `π A L` from each emitting face.
     pub fn power(&self) -> Vec3 {
-        PI * self.area() * self.radiance()
+        self.faces() * PI * self.area() * self.radiance()
+    }
+
+    /// How many faces emit.
+    fn faces(&self) -> f32 {
+        if self.two_sided {
+            2.0
+        } else {
+            1.0
+        }
     }
 }
 
@@ -118,6 +131,7 @@ pub fn area_light_scene(lights: &[AreaLight], names: &[String]) -> Scene {
             name: names.get(i).cloned().unwrap_or_default(),
             diffuse: Vec3::ZERO,
             emission: light.radiance(),
+            two_sided_emission: light.two_sided,
             ..Material::default()
         });
     }
@@ -241,6 +255,7 @@ mod tests {
                     transform,
                     colour: Vec3::ONE,
                     emission: AreaEmission::Radiance(1.0),
+                    two_sided: false,
                 };
                 for [a, b, c] in light.triangles() {
                     assert!(
@@ -254,6 +269,7 @@ mod tests {
                 transform,
                 colour: Vec3::ONE,
                 emission: AreaEmission::Radiance(1.0),
+                two_sided: false,
             };
             let triangles = sphere.triangles();
             assert_eq!(triangles.len(), 20 * 4usize.pow(SPHERE_SUBDIVISIONS));

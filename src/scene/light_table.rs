@@ -4,8 +4,8 @@
 //! take, a missing or doubled brightness, a bad value, each is one error at its key.
 //!
 //! A light's local frame: it shines along −z (a spot's axis, a sun's direction of
-//! travel, the side a quad or a disk lights), from the origin; `direction = [x, y, z]`
-//! turns −z there, as `rotate` or `matrix` would.
+//! travel, the side a quad or a disk lights, both sides with `two-sided = true`), from
+//! the origin; `direction = [x, y, z]` turns −z there, as `rotate` or `matrix` would.
 
 use std::f32::consts::PI;
 use std::ops::Range;
@@ -57,6 +57,7 @@ pub(super) struct LightEntry {
     angular_diameter: Option<Spanned<f32>>,
     size: Option<Spanned<[f32; 2]>>,
     radius: Option<Spanned<f32>>,
+    two_sided: Option<Spanned<bool>>,
     direction: Option<Spanned<[f32; 3]>>,
     translate: Option<Spanned<[f32; 3]>>,
     rotate: Option<Spanned<Rotation>>,
@@ -75,8 +76,8 @@ const TYPES: [LightType; 6] = [
         &["rotate", "direction", "matrix"],
         &["irradiance", "lux"],
     ),
-    ("quad", &["size"], SURFACE, AREA_UNITS),
-    ("disk", &["radius"], SURFACE, AREA_UNITS),
+    ("quad", &["size", "two-sided"], SURFACE, AREA_UNITS),
+    ("disk", &["radius", "two-sided"], SURFACE, AREA_UNITS),
     (
         "sphere",
         &["radius"],
@@ -134,6 +135,7 @@ impl LightEntry {
             ),
             span(self.size.as_ref().map(Spanned::span), "size"),
             span(self.radius.as_ref().map(Spanned::span), "radius"),
+            span(self.two_sided.as_ref().map(Spanned::span), "two-sided"),
             span(self.direction.as_ref().map(Spanned::span), "direction"),
             span(self.translate.as_ref().map(Spanned::span), "translate"),
             span(self.rotate.as_ref().map(Spanned::span), "rotate"),
@@ -208,6 +210,7 @@ pub(super) fn read_light(
                 ("power", v) => AreaEmission::Power(v),
                 (_, v) => AreaEmission::Radiance(v),
             },
+            two_sided: entry.two_sided.as_ref().is_some_and(|t| *t.get_ref()),
         }),
     };
     check_power(&light, table.clone(), &fail)?;
@@ -542,9 +545,12 @@ impl SceneLight {
                     AreaShape::Disk { radius } => format!("disk of radius {}", number(radius)),
                     AreaShape::Sphere { radius } => format!("sphere of radius {}", number(radius)),
                 };
-                let facing = match a.shape {
-                    AreaShape::Sphere { .. } => String::new(),
-                    _ => format!(" lighting along {}", vector(shining(&a.transform))),
+                let facing = match (a.shape, a.two_sided) {
+                    (AreaShape::Sphere { .. }, _) => String::new(),
+                    (_, false) => format!(" lighting along {}", vector(shining(&a.transform))),
+                    (_, true) => {
+                        format!(" lighting both sides of {}", vector(shining(&a.transform)))
+                    }
                 };
                 format!(
                     "{shape} at {}{facing}: radiance {} W/m²/sr (power {} W over {} m², {} triangles)",

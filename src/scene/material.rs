@@ -25,7 +25,8 @@
 //!
 //! `Kd` and `Ks` are clamped to [0, 1] per channel, so no material reflects more light
 //! than it receives. Any material with `Ke` > 0 (or `map_Ke`) also emits from the side
-//! its triangles' counter-clockwise winding faces, and still reflects with its BSDF.
+//! its triangles' counter-clockwise winding faces (from both faces where
+//! [`Material::two_sided_emission`] is set), and still reflects with its BSDF.
 //! Every surface but glass is two-sided.
 //!
 //! A glTF material is not read from MTL: its loader makes a [`Model::MetallicRoughness`]
@@ -145,6 +146,9 @@ pub struct Material {
     pub opacity: f32,
     /// `map_d` (or the alpha channel of `map_Kd`): index into the scene's alpha maps.
     pub opacity_map: Option<u32>,
+    /// Whether the emission leaves both faces (glTF's `doubleSided`, a scene file's
+    /// `two_sided` light) rather than the counter-clockwise side alone.
+    pub two_sided_emission: bool,
 }
 
 impl Default for Material {
@@ -163,6 +167,7 @@ impl Default for Material {
             maps: MaterialMaps::default(),
             opacity: 1.0,
             opacity_map: None,
+            two_sided_emission: false,
         }
     }
 }
@@ -255,6 +260,7 @@ impl Material {
             maps,
             opacity: 1.0,
             opacity_map: None,
+            two_sided_emission: false,
         }
     }
 
@@ -297,6 +303,25 @@ impl Material {
 
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    /// Whether the emission reaches a ray travelling along `dir` that meets the
+    /// surface of geometric normal `ng` (counter-clockwise): from the front, or from
+    /// either face when two-sided (grazing rays meet nothing).
+    #[inline]
+    pub fn emits_along(&self, dir: Vec3, ng: Vec3) -> bool {
+        let cos = dir.dot(ng);
+        cos < 0.0 || (self.two_sided_emission && cos > 0.0)
+    }
+
+    /// How many faces emit: the factor of the power `π A L` of a triangle of area `A`.
+    #[inline]
+    pub fn emitting_faces(&self) -> f32 {
+        if self.two_sided_emission {
+            2.0
+        } else {
+            1.0
+        }
     }
 
     /// The GGX roughness of the model, before any map.

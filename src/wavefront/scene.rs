@@ -139,6 +139,8 @@ fn unsupported(scene: &Scene) -> Result<(), String> {
     });
     let reason = if !lambert {
         "materials other than untextured, opaque Lambert"
+    } else if scene.materials.iter().any(|m| m.two_sided_emission) {
+        "two-sided emitters"
     } else if scene.instancing.is_some() {
         "instances"
     } else if !scene.mesh.normals.is_empty() {

@@ -15,7 +15,7 @@ use ember::accel::EmbreeAccel;
 use ember::embree::{BuildQuality, Device};
 use ember::image::Image;
 use ember::scene::{Material, Scene, TriangleMesh};
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 
 /// The camera of the Cornell references (Mitsuba's), as `ember render` flags.
 pub const CORNELL_CAMERA: [&str; 6] = ["--eye", "0,1,3.9", "--look-at", "0,1,0", "--fov", "40"];
@@ -218,4 +218,20 @@ pub fn small_mis_settings() -> ember::render::RenderSettings {
         guiding: None,
         engine: Default::default(),
     }
+}
+
+/// Irradiance at `p` (unit normal `n`) from a uniformly emitting polygon `v` of
+/// radiance `radiance` wholly in front of `p`'s plane (Lambert's formula):
+/// `L/2 |Σ θ_i (n · unit(r_i × r_{i+1}))|` over its edges seen from `p`.
+pub fn lambert_irradiance(p: Vec3, n: Vec3, v: &[Vec3], radiance: f64) -> f64 {
+    let r: Vec<DVec3> = v.iter().map(|x| (*x - p).as_dvec3().normalize()).collect();
+    let n = n.as_dvec3();
+    let sum: f64 = (0..r.len())
+        .map(|i| {
+            let (a, b) = (r[i], r[(i + 1) % r.len()]);
+            let theta = a.dot(b).clamp(-1.0, 1.0).acos();
+            theta * n.dot(a.cross(b).normalize_or_zero())
+        })
+        .sum();
+    radiance * 0.5 * sum.abs()
 }

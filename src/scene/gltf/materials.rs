@@ -8,8 +8,11 @@
 //! the dielectric (see [`Dielectric`]); the specular texture, a map of
 //! `specularFactor` in an alpha channel, is not read (one warning).
 //!
-//! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided` is
-//! read but changes nothing: ember shades both sides of every surface, as Cycles does.
+//! Occlusion textures are ignored (a path tracer computes occlusion). `doubleSided`
+//! makes an emissive material emit from both faces, as the specification's
+//! double-sided lighting (the back face lit with its normal reversed) and Cycles do;
+//! without it only the counter-clockwise face emits. Reflection needs no flag: ember
+//! shades both sides of every surface.
 //! One set of texture coordinates and one `KHR_texture_transform` serve all of a
 //! material's textures: its base colour texture's (else its first texture's), baked into
 //! the texture coordinates of the primitives that use it.
@@ -136,6 +139,8 @@ pub struct GltfValues {
     pub specular_colour_texture: Option<u32>,
     /// `transmissionTexture`, read through its red channel.
     pub transmission_texture: Option<u32>,
+    /// `doubleSided`.
+    pub double_sided: bool,
 }
 
 /// The one mapping from glTF's metallic-roughness parameters to an ember material.
@@ -169,6 +174,7 @@ pub fn metallic_roughness(v: &GltfValues) -> Material {
     };
     material.opacity = v.opacity;
     material.opacity_map = v.opacity_map;
+    material.two_sided_emission = v.double_sided && material.is_emissive();
     material
 }
 
@@ -354,6 +360,7 @@ fn plan(material: &gltf::Material<'_>, name: &str) -> Result<Plan, String> {
         emission: Vec3::from(material.emissive_factor()) * strength.max(0.0),
         opacity: 1.0,
         dielectric: Dielectric::of(material)?,
+        double_sided: material.double_sided(),
         ..GltfValues::default()
     };
     let mut slots = Vec::new();
