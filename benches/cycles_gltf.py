@@ -16,6 +16,7 @@ The scenes are those of scripts/make_gltf_test_scenes.py (shipped in tests/data/
 | spheres.glb | a uniform sky of radiance 1 (`--background 1,1,1`; Cycles' world colour 1) |
 | interior.glb | a point and a spot light (KHR_lights_punctual), no sky |
 | textured.glb | a sun (KHR_lights_punctual) and a uniform sky of radiance 0.2 |
+| glass.glb | a uniform sky of radiance 1 |
 
 The Cycles side adapts `gltf_render.py` of the Cycles peer that ember's developers keep
 beside the repository (shared/peers/cycles, not part of ember) with the film settings of
@@ -52,6 +53,7 @@ SCENES = [
     ("spheres.glb", 1.0),
     ("interior.glb", 0.0),
     ("textured.glb", 0.2),
+    ("glass.glb", 1.0),
 ]
 
 
@@ -148,8 +150,9 @@ def region_means(image, names, prefix):
             same &= padded[dy:dy + h, dx:dx + w] == names
     means = {}
     for name in sorted(set(names.ravel())):
-        if name.startswith(prefix):
-            means[name] = image[same & (names == name)].mean()
+        inside = same & (names == name)
+        if name.startswith(prefix) and inside.any():
+            means[name] = image[inside].mean()
     return means
 
 
@@ -254,15 +257,15 @@ def main():
 
 
 def print_regions(regions):
-    """Per-sphere means of the scenes with spheres named `metallicM-roughnessR`."""
+    """Each object's mean in each scene (the spheres named `metallicM-roughnessR`...)."""
     rows = []
     for stem, names, cycles, ember in regions:
-        c, e = region_means(cycles, names, "metallic"), region_means(ember, names, "metallic")
-        rows += [(stem, name, c[name], e[name]) for name in c]
+        c, e = region_means(cycles, names, ""), region_means(ember, names, "")
+        rows += [(stem, name, c[name], e[name]) for name in c if name]
     if not rows:
         return
-    print("\nEach sphere's mean over its silhouette (pixels whose 3x3 neighbourhood is on it):\n")
-    print("| scene | sphere | Cycles mean | ember mean | ember / Cycles |")
+    print("\nEach object's mean over its silhouette (pixels whose 3x3 neighbourhood is on it):\n")
+    print("| scene | object | Cycles mean | ember mean | ember / Cycles |")
     print("|---|---|---|---|---|")
     for stem, name, c, e in rows:
         print(f"| {stem} | {name} | {c:.5f} | {e:.5f} | {e / c:.4f} |")
