@@ -340,6 +340,9 @@ fn a_render_of_clamped_and_repeating_textures_differs_where_u_leaves_the_image()
             assert_eq!(p.x, want, "wrap {wrap}, pixel {i} (u = {u})");
         }
     }
+    let info = ember_in(&["info", "quad.gltf"], dir.path());
+    let out = String::from_utf8_lossy(&info.stdout);
+    assert!(out.contains("2x1 8-bit sRGB (mirror, nearest)"), "{out}");
     let (clamped, repeating) = (render(CLAMP), render(REPEAT));
     let differ: Vec<usize> = (0..48)
         .filter(|&c| clamped.pixels[c] != repeating.pixels[c])

@@ -10,7 +10,9 @@ use ember::image::{self, Crop, Image};
 use glam::Vec3;
 
 use super::render::LoadedScene;
-use ember::scene::{LoadOptions, Material, Model, Scene, SceneLight, Texels};
+use ember::scene::{
+    Filter, LoadOptions, Material, Model, Sampler, Scene, SceneLight, Texels, Wrap,
+};
 
 #[derive(Args)]
 pub struct CompareArgs {
@@ -346,7 +348,8 @@ fn print_textures(scene: &Scene) {
             Texels::GrayF32(v) => ("float grey", 4 * v.len()),
         };
         bytes += held;
-        sizes.push(format!("{}x{} {kind}", t.width, t.height));
+        let sampler = sampler_words(t.sampler);
+        sizes.push(format!("{}x{} {kind}{sampler}", t.width, t.height));
     }
     match sizes.is_empty() {
         true => println!("textures: none"),
@@ -357,6 +360,32 @@ fn print_textures(scene: &Scene) {
             sizes.join(", ")
         ),
     }
+}
+
+/// A texture's sampler in words, ` (clamp, nearest)`, when it is not the default
+/// (repeating, bilinear).
+fn sampler_words(sampler: Sampler) -> String {
+    if sampler == Sampler::default() {
+        return String::new();
+    }
+    let name = |w: Wrap| match w {
+        Wrap::Repeat => "repeat",
+        Wrap::Clamp => "clamp",
+        Wrap::Mirror => "mirror",
+    };
+    let wrap = match sampler.wrap_s == sampler.wrap_t {
+        true => name(sampler.wrap_s).to_owned(),
+        false => format!(
+            "{} in u, {} in v",
+            name(sampler.wrap_s),
+            name(sampler.wrap_t)
+        ),
+    };
+    let filter = match sampler.filter {
+        Filter::Bilinear => "bilinear",
+        Filter::Nearest => "nearest",
+    };
+    format!(" ({wrap}, {filter})")
 }
 
 fn build_info() -> Result<()> {
