@@ -1,6 +1,7 @@
 //! Fuzzing the glTF reader on the stable toolchain (proptest): small valid files made
 //! at run time (a textured floor under a point and a spot light, a camera, a mesh two
-//! nodes share, a strip, a sparse accessor, a MASK material), mutated at the JSON
+//! nodes share, a strip, a sparse accessor, a MASK material, a rough glass with a
+//! transmission texture), mutated at the JSON
 //! level (values replaced by numbers at the edge of `f32` and `u32`, wrong types,
 //! indices out of range, keys removed, nodes made their own ancestors, URIs broken) and
 //! as bytes of the GLB (bytes and length fields overwritten, the file cut short).
@@ -43,7 +44,13 @@ fn base() -> &'static GltfBuilder {
         let (p, uv, i) = floor_quad(2.0, 0.0);
         let floor = gltf.mesh(&p, Some(&uv), &i, Some(textured));
         gltf.node(json!({"mesh": floor}), true);
-        let plain = gltf.material(json!({"pbrMetallicRoughness": {"metallicFactor": 0.5}}));
+        for name in ["KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_specular"] {
+            gltf.uses(name, false);
+        }
+        let plain = gltf.material(json!({"pbrMetallicRoughness": {"metallicFactor": 0.5},
+            "extensions": {"KHR_materials_transmission": {"transmissionFactor": 0.7, "transmissionTexture": {"index": 0}},
+                "KHR_materials_ior": {"ior": 1.4},
+                "KHR_materials_specular": {"specularFactor": 0.8, "specularColorFactor": [1.0, 0.9, 0.8]}}}));
         let box_mesh = gltf.mesh(
             &[[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]],
             None,
@@ -312,6 +319,11 @@ fn the_unchanged_file_loads_and_renders() {
         assert!(floor.maps.roughness.is_some() && floor.maps.roughness == floor.maps.metallic);
         assert_eq!(floor.maps.roughness_channel, Channel::Green);
         assert_eq!(floor.maps.metallic_channel, Channel::Blue);
+        let glass = &loaded.scene.materials[1];
+        assert!(
+            matches!(glass.model, Model::MetallicRoughness { transmission, .. } if transmission == 0.7)
+        );
+        assert!(glass.maps.transmission.is_some());
         common::fuzz::render_both(&loaded.scene).unwrap();
     }
 }

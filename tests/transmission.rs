@@ -242,6 +242,38 @@ fn a_clear_glass_keeps_what_single_scattering_keeps() {
     }
 }
 
+/// No glass, tinted, mixed with the base or the metal, or with `KHR_materials_specular`,
+/// returns more of any channel than it receives, from either side.
+#[test]
+fn no_glass_returns_more_than_it_receives() {
+    let n = tilted_normal();
+    for (name, bsdf) in lobes(n) {
+        for theta in [0.0f32, 45.0, 75.0, 89.0] {
+            for side in [1.0f32, -1.0] {
+                let wo = side * direction(n, theta, 0.1);
+                let mut rng = Rng::seeded(47);
+                let count = 100_000;
+                let (mut sum, mut sum2) = (DVec3::ZERO, 0.0f64);
+                for _ in 0..count {
+                    if let Some(s) = draw(&bsdf, wo, &mut rng) {
+                        let w = (s.weight() * s.eta * s.eta).as_dvec3();
+                        sum += w;
+                        sum2 += w.max_element().powi(2);
+                    }
+                }
+                let mean = sum / count as f64;
+                let sigma = ((sum2 / count as f64 - mean.max_element().powi(2)).max(0.0)
+                    / count as f64)
+                    .sqrt();
+                assert!(
+                    mean.max_element() <= 1.0 + 5.0 * sigma + 2e-3,
+                    "{name}, θo {theta}°, side {side}: {mean} ± {sigma}"
+                );
+            }
+        }
+    }
+}
+
 /// The directional albedo `∫ f cos dωi` of `wo` with the refracted light's `1/η²` taken
 /// out (energy is conserved, not radiance), in the red channel, and its standard error.
 fn energy_albedo(bsdf: &Bsdf, wo: Vec3, count: usize) -> (f32, f32) {

@@ -398,6 +398,7 @@ impl<'a, A: Accel> PathTracer<'a, A> {
             };
             let guide = match self.guide {
                 Some(tree) if GUIDED && scatters && !bsdf.is_delta() => {
+                    // Folded to wo's side: a transmitting BSDF's own draws cover the other.
                     let guide = tree.guide_at(surface.p, reflecting_normal(&surface, wo));
                     let expected = expected_from(throughput, bsdf.albedo(), guide.incident());
                     adjoint_survival = roulette.survival(channel_mean(radiance), expected);
