@@ -180,6 +180,19 @@ fn double_sided_emissive_materials_emit_from_both_faces() {
         };
         sums.assert_mean(&format!("floor, doubleSided {double_sided}"), expected);
     }
+    // `ember info` says so, and counts the power of both faces.
+    let dir = tempfile::tempdir().unwrap();
+    let (gltf, _) = panel_facing_up(true);
+    write(dir.path(), "panel.gltf", gltf.to_gltf().as_bytes());
+    let info = ember_in(&["info", "panel.gltf"], dir.path());
+    let stdout = String::from_utf8_lossy(&info.stdout);
+    assert!(info.status.success(), "{stdout}");
+    for line in ["from both faces", "(pi x area x luminance of Ke x 2 faces)"] {
+        assert!(
+            stdout.contains(line),
+            "`ember info` lacks {line:?}:\n{stdout}"
+        );
+    }
     // A doubleSided material that does not emit has nothing to emit from either face.
     let mut gltf = GltfBuilder::default();
     with_floor(&mut gltf, json!({"doubleSided": true}));

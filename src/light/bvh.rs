@@ -43,7 +43,7 @@
 //! into four-wide nodes by opening, under each node, the child of most power until it
 //! has four.
 
-use glam::{Vec3, Vec4};
+use glam::{BVec4A, Vec3, Vec4};
 
 use std::f32::consts::{FRAC_PI_2, PI};
 
@@ -193,8 +193,11 @@ struct Lanes {
     axis_reach: Vec4,
     cos_o: Vec4,
     sin_o: Vec4,
-    /// 1 in the lanes of two-sided bounds (their cone mirrored), else 0.
-    two_sided: Vec4,
+    /// The lanes of two-sided bounds (their cone mirrored).
+    two_sided: BVec4A,
+    /// The lanes that the plane test passes wherever the receiver is: their cone is a
+    /// hemisphere or more, or they are two-sided.
+    emits_everywhere: BVec4A,
     power: Vec4,
     /// Rounding allowance of the plane tests: a few ulps of the box's coordinates.
     slack: Vec4,
@@ -235,7 +238,8 @@ impl Lanes {
         axis_reach: Vec4::ZERO,
         cos_o: Vec4::ONE,
         sin_o: Vec4::ZERO,
-        two_sided: Vec4::ZERO,
+        two_sided: BVec4A::FALSE,
+        emits_everywhere: BVec4A::FALSE,
         power: Vec4::ZERO,
         slack: Vec4::ZERO,
     };
@@ -255,7 +259,9 @@ impl Lanes {
         self.radius[lane] = self.radius_squared[lane].sqrt();
         self.cos_o[lane] = b.cos_theta;
         self.sin_o[lane] = (1.0 - b.cos_theta * b.cos_theta).max(0.0).sqrt();
-        self.two_sided[lane] = f32::from(u8::from(b.two_sided));
+        self.two_sided.set(lane, b.two_sided);
+        self.emits_everywhere
+            .set(lane, b.cos_theta <= 0.0 || b.two_sided);
         self.power[lane] = b.power;
     }
 
@@ -286,8 +292,7 @@ impl Lanes {
         let along = self.axis[0] * to_p[0] + self.axis[1] * to_p[1] + self.axis[2] * to_p[2];
         let facing = to_p[0] * n.x + to_p[1] * n.y + to_p[2] * n.z;
         // A mirrored cone: θ_w from the nearer of the axis and its reverse.
-        let two_sided = self.two_sided.cmpgt(Vec4::ZERO);
-        let cone_along = Vec4::select(two_sided, along.abs(), along);
+        let cone_along = Vec4::select(self.two_sided, along.abs(), along);
         let cos_w = (cone_along * inverse_d).clamp(-Vec4::ONE, Vec4::ONE);
         let sin_w = sqrt4((Vec4::ONE - cos_w * cos_w).max(Vec4::ZERO));
         let x = cos_sin_clamped_difference((cos_w, sin_w), (self.cos_o, self.sin_o));
@@ -309,9 +314,7 @@ impl Lanes {
         let reach = self.sin_o * (d2 * inverse_d + self.radius);
         // Two-sided emitters light both half-spaces: only their plane is dark, and the
         // slack admits it anyway.
-        let emits = (along + self.axis_reach + reach).cmpgt(-slack)
-            | self.cos_o.cmple(Vec4::ZERO)
-            | two_sided;
+        let emits = (along + self.axis_reach + reach).cmpgt(-slack) | self.emits_everywhere;
         let above =
             self.half[0] * q.n_abs.x + self.half[1] * q.n_abs.y + self.half[2] * q.n_abs.z - facing;
         // NaN (an empty lane at its own centre) and ∞ (p on a point light) say nothing.

@@ -23,7 +23,7 @@
 //! Emitters are one-sided unless their material says otherwise: they emit on the side
 //! their counter-clockwise normal points to, and a point seen from behind has density
 //! 0 (it is never a useful light sample). A two-sided emitter (glTF's `doubleSided`,
-//! a scene file's `two_sided` light) emits from both faces: its power `2π A L` doubles
+//! a scene file's `two-sided` light) emits from both faces: its power `2π A L` doubles
 //! its weight in the choice, every density takes `|cos|` at the emitter, and the light
 //! BVH mirrors its orientation cone (see [`super::bvh`]), so that
 //! [`pdf_hit`](LightSampler::pdf_hit) stays the exact density of either side.

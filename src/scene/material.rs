@@ -147,7 +147,7 @@ pub struct Material {
     /// `map_d` (or the alpha channel of `map_Kd`): index into the scene's alpha maps.
     pub opacity_map: Option<u32>,
     /// Whether the emission leaves both faces (glTF's `doubleSided`, a scene file's
-    /// `two_sided` light) rather than the counter-clockwise side alone.
+    /// `two-sided` light) rather than the counter-clockwise side alone.
     pub two_sided_emission: bool,
 }
 
