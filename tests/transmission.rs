@@ -296,11 +296,11 @@ fn energy_albedo(bsdf: &Bsdf, wo: Vec3, count: usize) -> (f32, f32) {
 /// the radiance convention for an interface of index `ior` behind the normal `n`.
 fn walter(n: Vec3, wo: Vec3, wi: Vec3, alpha: f64, ior: f64) -> f64 {
     let (n, o, i) = (n.as_dvec3(), wo.as_dvec3(), wi.as_dvec3());
-    let (mut cos_o, mut cos_i) = (o.dot(n), i.dot(n));
+    let cos_o = o.dot(n);
     // Light arrives on the side of wo; its index is 1 in front of n, ior behind.
     let eta = if cos_o > 0.0 { ior } else { 1.0 / ior };
     let n = if cos_o > 0.0 { n } else { -n };
-    (cos_o, cos_i) = (cos_o.abs(), i.dot(n));
+    let (cos_o, cos_i) = (cos_o.abs(), i.dot(n));
     let tan2 = |c: f64| (1.0 - c * c) / (c * c);
     let g1 = |c: f64| 2.0 / (1.0 + (1.0 + alpha * alpha * tan2(c)).sqrt());
     let d = |cos_h: f64| {

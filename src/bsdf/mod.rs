@@ -316,7 +316,8 @@ impl Bsdf {
             // `eval_pdf` is 0 below where it does not).
             let sides = wo.dot(self.ng) * wi.dot(self.ng);
             let reflected = wi_local.z > 0.0 && sides > 0.0;
-            if !reflected && !(wi_local.z < 0.0 && sides < 0.0) {
+            let refracted = wi_local.z < 0.0 && sides < 0.0;
+            if !(reflected || refracted) {
                 return (Vec3::ZERO, 0.0);
             }
             let eta = lobe.eta(flip);
