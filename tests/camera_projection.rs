@@ -9,27 +9,13 @@ mod common;
 use std::path::Path;
 
 use common::gltf::GltfBuilder;
-use common::{build, diffuse, ember_in, quad, Built};
+use common::{ember_in, emitting_square, Built};
 use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::{render, Engine, RenderSettings};
 use ember::scene::{CameraSettings, Lens, Projection};
 use glam::Vec3;
 use serde_json::json;
-
-/// An emitter of radiance 1, a square of side `side` centred on the z axis at
-/// `z`, facing +z; nothing else.
-fn square_at(z: f32, side: f32) -> Built {
-    let h = 0.5 * side;
-    let tris = quad(
-        Vec3::new(-h, -h, z),
-        Vec3::new(h, -h, z),
-        Vec3::new(h, h, z),
-        Vec3::new(-h, h, z),
-        0,
-    );
-    build(&tris, vec![diffuse(Vec3::ZERO, Vec3::ONE)])
-}
 
 /// A camera at (0, 0, 5) looking along −z.
 fn looking_down_z(projection: Projection) -> CameraSettings {
@@ -119,11 +105,16 @@ fn orthographic_rays_are_parallel_and_cross_the_view_in_scene_units() {
 fn a_square_fills_side_over_height_of_the_image_at_any_depth() {
     let ortho = looking_down_z(Projection::Orthographic { height: 2.0 });
     for z in [3.0, -4.0] {
-        let image = shoot(&square_at(z, 1.0), &ortho, (64, 64), Engine::Scalar);
+        let image = shoot(&emitting_square(z, 1.0), &ortho, (64, 64), Engine::Scalar);
         assert_eq!(lit(&image), (32 * 32, 32, 32), "square at z = {z}");
     }
     // 128 × 64: the view is 4 units wide, the square a quarter of it.
-    let image = shoot(&square_at(0.0, 1.0), &ortho, (128, 64), Engine::Scalar);
+    let image = shoot(
+        &emitting_square(0.0, 1.0),
+        &ortho,
+        (128, 64),
+        Engine::Scalar,
+    );
     assert_eq!(lit(&image), (32 * 32, 32, 32));
     // Through a perspective camera whose view is 2 units high at z = 0 the nearer
     // square is larger: the view is 2·d·tan(fov/2) = 0.4·d high at distance d, so
@@ -131,7 +122,12 @@ fn a_square_fills_side_over_height_of_the_image_at_any_depth() {
     let fov = 2.0 * (1.0f32 / 5.0).atan().to_degrees();
     let perspective = looking_down_z(Projection::perspective(fov));
     for (z, side) in [(0.0, 32), (1.0, 40)] {
-        let image = shoot(&square_at(z, 1.0), &perspective, (64, 64), Engine::Scalar);
+        let image = shoot(
+            &emitting_square(z, 1.0),
+            &perspective,
+            (64, 64),
+            Engine::Scalar,
+        );
         assert_eq!(lit(&image), (side * side, side, side), "square at z = {z}");
     }
 }
@@ -140,7 +136,7 @@ fn a_square_fills_side_over_height_of_the_image_at_any_depth() {
 #[test]
 fn the_wavefront_engine_renders_orthographic_views() {
     let ortho = looking_down_z(Projection::Orthographic { height: 2.0 });
-    let built = square_at(-1.0, 1.0);
+    let built = emitting_square(-1.0, 1.0);
     let scalar = shoot(&built, &ortho, (64, 32), Engine::Scalar);
     let wavefront = shoot(&built, &ortho, (64, 32), Engine::Wavefront);
     // 32 rows of 64: the square is half the height and a quarter of the width.

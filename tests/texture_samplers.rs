@@ -9,8 +9,7 @@ mod common;
 
 use std::path::Path;
 
-use base64::Engine;
-use common::gltf::{floor_quad, GltfBuilder};
+use common::gltf::{floor_quad, png_data_uri, GltfBuilder};
 use common::{ember_in, with_embree, Built};
 use ember::accel::{Accel, Ray};
 use ember::image::{srgb_to_linear, Image};
@@ -28,12 +27,11 @@ const LINEAR: u32 = 9729;
 /// green.
 const LEVELS: [u8; 4] = [0, 85, 170, 255];
 
-/// The 4 × 4 texture above as a PNG.
-fn grid_png() -> Vec<u8> {
-    let image = image::RgbImage::from_fn(4, 4, |x, y| {
+/// The 4 × 4 texture above.
+fn grid() -> image::RgbImage {
+    image::RgbImage::from_fn(4, 4, |x, y| {
         image::Rgb([LEVELS[x as usize], LEVELS[y as usize], 0])
-    });
-    png(image)
+    })
 }
 
 fn png(image: image::RgbImage) -> Vec<u8> {
@@ -45,11 +43,6 @@ fn png(image: image::RgbImage) -> Vec<u8> {
         )
         .unwrap();
     bytes
-}
-
-fn data_uri(png: &[u8]) -> String {
-    let data = base64::engine::general_purpose::STANDARD.encode(png);
-    format!("data:image/png;base64,{data}")
 }
 
 /// The texel a coordinate `c` of glTF's texture space reads on an axis of 4 texels, by
@@ -119,7 +112,7 @@ fn nearest_lookups_read_the_texel_each_wrap_mode_defines() {
         .flat_map(|&s| modes.iter().map(move |&t| (s, t)))
         .collect();
     let mut gltf = GltfBuilder::default();
-    gltf.json["images"] = json!([{"uri": data_uri(&grid_png())}]);
+    gltf.json["images"] = json!([{"uri": png_data_uri(grid())}]);
     gltf.json["samplers"] = json!(pairs
         .iter()
         .map(|&(s, t)| json!({"magFilter": NEAREST, "minFilter": NEAREST, "wrapS": s, "wrapT": t}))
@@ -154,7 +147,7 @@ fn nearest_lookups_read_the_texel_each_wrap_mode_defines() {
 fn linear_lookups_blend_the_nearest_texel_centres() {
     let dir = tempfile::tempdir().unwrap();
     let mut gltf = GltfBuilder::default();
-    gltf.json["images"] = json!([{"uri": data_uri(&grid_png())}]);
+    gltf.json["images"] = json!([{"uri": png_data_uri(grid())}]);
     gltf.json["samplers"] = json!([
         {"magFilter": LINEAR, "minFilter": LINEAR, "wrapS": CLAMP, "wrapT": REPEAT},
         {"magFilter": NEAREST, "minFilter": LINEAR},
@@ -192,7 +185,7 @@ fn linear_lookups_blend_the_nearest_texel_centres() {
 fn two_samplers_on_one_image_each_keep_theirs() {
     let dir = tempfile::tempdir().unwrap();
     let mut gltf = GltfBuilder::default();
-    gltf.json["images"] = json!([{"uri": data_uri(&grid_png())}]);
+    gltf.json["images"] = json!([{"uri": png_data_uri(grid())}]);
     gltf.json["samplers"] = json!([
         {"magFilter": NEAREST, "minFilter": NEAREST, "wrapS": CLAMP, "wrapT": CLAMP},
         {"magFilter": NEAREST, "minFilter": NEAREST},
@@ -278,7 +271,7 @@ fn mtl_clamp_on_clamps() {
 fn emissive_quad(wrap: u32) -> GltfBuilder {
     let mut gltf = GltfBuilder::default();
     let texture = image::RgbImage::from_fn(2, 1, |x, _| image::Rgb([255 * x as u8; 3]));
-    gltf.json["images"] = json!([{"uri": data_uri(&png(texture))}]);
+    gltf.json["images"] = json!([{"uri": png_data_uri(texture)}]);
     gltf.json["samplers"] =
         json!([{"magFilter": NEAREST, "minFilter": NEAREST, "wrapS": wrap, "wrapT": wrap}]);
     gltf.json["textures"] = json!([{"source": 0, "sampler": 0}]);

@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{build, diffuse, quad, Built};
+use common::{emitting_square, Built};
 use ember::image::Image;
 use ember::integrator::IntegratorKind;
 use ember::render::{render, RenderSettings};
@@ -18,16 +18,7 @@ const FOCUS: f32 = 4.0;
 /// A square emitter of side `side` facing the camera, centred on the view axis at
 /// `depth` in front of the eye (at the origin, looking along −z); nothing else.
 fn square_at(depth: f32, side: f32) -> Built {
-    let h = 0.5 * side;
-    let z = -depth;
-    let tris = quad(
-        Vec3::new(-h, -h, z),
-        Vec3::new(h, -h, z),
-        Vec3::new(h, h, z),
-        Vec3::new(-h, h, z),
-        0,
-    );
-    build(&tris, vec![diffuse(Vec3::ZERO, Vec3::ONE)])
+    emitting_square(-depth, side)
 }
 
 fn camera(lens: Lens) -> CameraSettings {

@@ -84,6 +84,20 @@ pub fn diffuse(albedo: Vec3, emission: Vec3) -> Material {
     }
 }
 
+/// An emitter of radiance 1, a square of side `side` centred on the z axis in the
+/// plane at `z`, facing +z; nothing else.
+pub fn emitting_square(z: f32, side: f32) -> Built {
+    let h = 0.5 * side;
+    let tris = quad(
+        Vec3::new(-h, -h, z),
+        Vec3::new(h, -h, z),
+        Vec3::new(h, h, z),
+        Vec3::new(-h, h, z),
+        0,
+    );
+    build(&tris, vec![diffuse(Vec3::ZERO, Vec3::ONE)])
+}
+
 /// The two triangles of the quad `a b c d` (counter-clockwise seen from the side its
 /// normal points to).
 pub fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, material: u32) -> [([Vec3; 3], u32); 2] {
