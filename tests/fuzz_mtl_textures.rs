@@ -166,7 +166,12 @@ fn option() -> impl Strategy<Value = (String, bool)> {
         .prop_flat_map(|(k, extra)| {
             let (name, lo, hi) = OPTIONS[k];
             let count = (lo + extra).min(hi) as usize;
-            prop::collection::vec(finite(), count).prop_map(move |args| (name, args))
+            // `-clamp` takes a word, on or off; every other option numbers.
+            let arg = match name {
+                "-clamp" => prop::sample::select(vec!["on".to_owned(), "off".to_owned()]).boxed(),
+                _ => finite().boxed(),
+            };
+            prop::collection::vec(arg, count).prop_map(move |args| (name, args))
         })
         .prop_map(|(name, args)| (format!("{name} {}", args.join(" ")), true));
     let hostile = (
