@@ -13,9 +13,11 @@ pub const MAX_SHARDS: u32 = 1_000_000;
 /// for users who want ember to stay under a budget smaller than the machine's).
 pub const MEMORY_LIMIT_ENV: &str = "EMBER_MEMORY_LIMIT";
 
-/// Bytes of memory available to ember: `EMBER_MEMORY_LIMIT` if set, otherwise
-/// `MemAvailable` from `/proc/meminfo`. `None` where neither is known (non-Linux),
-/// in which case no up-front check is made.
+/// Bytes of memory available to ember: `EMBER_MEMORY_LIMIT` if set, otherwise the
+/// smaller of `MemAvailable` from `/proc/meminfo` and what the memory cgroups this
+/// process runs in still allow (containers and CI runners limit memory there, and the
+/// machine-wide figure does not see it). `None` where nothing is known (non-Linux), in
+/// which case no up-front check is made.
 pub fn available_memory() -> Option<u64> {
     if let Some(limit) = std::env::var(MEMORY_LIMIT_ENV)
         .ok()
@@ -23,8 +25,55 @@ pub fn available_memory() -> Option<u64> {
     {
         return Some(limit);
     }
-    let meminfo = std::fs::read_to_string("/proc/meminfo").ok()?;
-    parse_meminfo_available(&meminfo)
+    let machine = std::fs::read_to_string("/proc/meminfo")
+        .ok()
+        .and_then(|meminfo| parse_meminfo_available(&meminfo));
+    let cgroup = std::fs::read_to_string("/proc/self/cgroup")
+        .ok()
+        .and_then(|groups| cgroup_headroom(&groups, std::path::Path::new("/sys/fs/cgroup")));
+    match (machine, cgroup) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// The least `limit - usage` over the memory cgroup of `/proc/self/cgroup` text and its
+/// ancestors (a parent's limit binds its children too), under the cgroup mount `root`:
+/// cgroup v2's `memory.max`/`memory.current`, or v1's `memory.limit_in_bytes`/
+/// `memory.usage_in_bytes`. `None` when no level sets a limit.
+pub fn cgroup_headroom(proc_cgroup: &str, root: &std::path::Path) -> Option<u64> {
+    let (dir, limit_file, usage_file) = proc_cgroup.lines().find_map(|line| {
+        let mut fields = line.splitn(3, ':');
+        let (_, controllers, path) = (fields.next()?, fields.next()?, fields.next()?);
+        match controllers {
+            "" => Some((
+                root.join(path.trim_start_matches('/')),
+                "memory.max",
+                "memory.current",
+            )),
+            c if c.split(',').any(|c| c == "memory") => Some((
+                root.join("memory").join(path.trim_start_matches('/')),
+                "memory.limit_in_bytes",
+                "memory.usage_in_bytes",
+            )),
+            _ => None,
+        }
+    })?;
+    let read = |dir: &std::path::Path, file: &str| -> Option<u64> {
+        std::fs::read_to_string(dir.join(file))
+            .ok()?
+            .trim()
+            .parse()
+            .ok()
+    };
+    // `max` (v2) does not parse and the v1 "unlimited" is near 2^63: neither is a limit.
+    dir.ancestors()
+        .take_while(|level| level.starts_with(root))
+        .filter_map(|level| {
+            let limit = read(level, limit_file).filter(|&l| l < 1 << 60)?;
+            Some(limit.saturating_sub(read(level, usage_file).unwrap_or(0)))
+        })
+        .min()
 }
 
 /// The `MemAvailable:` line of `/proc/meminfo` text, in bytes.
@@ -120,6 +169,35 @@ mod tests {
         assert_eq!(parse_status_peak(text), Some(502_484 * 1024));
         assert_eq!(parse_status_peak("VmRSS: 1 kB\n"), None);
         assert!(peak_resident_bytes().is_some_and(|b| b > 0));
+    }
+
+    #[test]
+    fn cgroup_limits_bind_at_every_level() {
+        let root = std::env::temp_dir().join(format!("ember-cgroup-{}", std::process::id()));
+        let write = |dir: &std::path::Path, file: &str, text: &str| {
+            std::fs::create_dir_all(dir).unwrap();
+            std::fs::write(dir.join(file), text).unwrap();
+        };
+        // v2: the parent's 1000-byte limit (100 used) binds the unlimited child.
+        let (parent, child) = (root.join("ci"), root.join("ci/job"));
+        write(&parent, "memory.max", "1000\n");
+        write(&parent, "memory.current", "100\n");
+        write(&child, "memory.max", "max\n");
+        write(&child, "memory.current", "50\n");
+        assert_eq!(cgroup_headroom("0::/ci/job\n", &root), Some(900));
+        assert_eq!(cgroup_headroom("0::/elsewhere\n", &root), None);
+        // v1: the memory controller's own hierarchy; the "unlimited" value is no limit.
+        let v1 = root.join("memory/runner");
+        write(&v1, "memory.limit_in_bytes", "4096");
+        write(&v1, "memory.usage_in_bytes", "1024");
+        write(
+            &root.join("memory"),
+            "memory.limit_in_bytes",
+            "9223372036854771712",
+        );
+        let groups = "5:cpu,cpuacct:/runner\n4:memory:/runner\n0::/\n";
+        assert_eq!(cgroup_headroom(groups, &root), Some(3072));
+        std::fs::remove_dir_all(&root).unwrap();
     }
 
     #[test]

@@ -652,6 +652,22 @@ fn hostile_files_are_one_error_line() {
         huge_indices.to_gltf().as_bytes(),
         "1000000000 elements reach byte",
     );
+    // Every attribute of 10^9 values, so that their counts agree: the count is checked
+    // against the buffer before anything is sized by it.
+    let mut all_huge = valid();
+    for (_, accessor) in all_huge.json["meshes"][0]["primitives"][0]["attributes"]
+        .clone()
+        .as_object()
+        .unwrap()
+    {
+        all_huge.json["accessors"][accessor.as_u64().unwrap() as usize]["count"] =
+            json!(1_000_000_000u64);
+    }
+    refused(
+        "all-huge.gltf",
+        all_huge.to_gltf().as_bytes(),
+        "1000000000 elements reach byte",
+    );
     let mut out_of_range = valid();
     let bad = out_of_range.indices(&[0, 1, 99]);
     out_of_range.json["meshes"][0]["primitives"][0]["indices"] = json!(bad);

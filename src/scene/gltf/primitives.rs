@@ -171,6 +171,9 @@ fn append_primitive(
     let normals = attribute(Semantic::Normals)?;
     let uvs = attribute(Semantic::TexCoords(uv.set))?;
     let colours = attribute(Semantic::Colors(0))?;
+    // Read first: this checks that the file holds `count` positions, which bounds every
+    // allocation below (a hostile `count` would otherwise size them).
+    let points = read_vectors::<3>(&positions, buffers, false)?;
     let indices = match primitive.indices() {
         Some(accessor) => read_indices(&accessor, buffers)?,
         None => (0..count as u32).collect(),
@@ -185,7 +188,7 @@ fn append_primitive(
     let (used, indices) = compact(indices, count);
     let count = used.as_ref().map_or(count, Vec::len);
     let offset = mesh.positions.len();
-    let points = pick(&used, read_vectors::<3>(&positions, buffers, false)?);
+    let points = pick(&used, points);
     mesh.positions.reserve(points.len());
     for (i, p) in points.into_iter().enumerate() {
         let p = transform.transform_point3(Vec3::from(p));
