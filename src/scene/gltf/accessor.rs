@@ -122,6 +122,12 @@ impl<'b> Strided<'b> {
     fn element(&self, i: usize) -> &'b [u8] {
         &self.bytes[self.offset + i * self.stride..]
     }
+
+    /// The first `count` elements in order, each at least its element's size (`new`
+    /// checked that they lie inside).
+    fn elements(&self, count: usize) -> impl Iterator<Item = &'b [u8]> {
+        self.bytes[self.offset..].chunks(self.stride).take(count)
+    }
 }
 
 /// The values of `accessor`, `N` components each (its type must have `N`, or with
@@ -163,11 +169,13 @@ pub fn read_vectors<const N: usize>(
             )?;
             match data_type {
                 // Most vertex data: decoded without a choice per component.
-                DataType::F32 => (0..count)
-                    .map(|i| {
-                        let b = strided.element(i);
-                        std::array::from_fn(|k| {
-                            f32::from_le_bytes([b[4 * k], b[4 * k + 1], b[4 * k + 2], b[4 * k + 3]])
+                DataType::F32 => strided
+                    .elements(count)
+                    .map(|b| {
+                        let mut floats = b[..4 * N].chunks_exact(4);
+                        std::array::from_fn(|_| {
+                            let bytes = floats.next().unwrap_or(&[0; 4]);
+                            f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]])
                         })
                     })
                     .collect(),
@@ -269,7 +277,15 @@ pub fn read_indices(accessor: &Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<
         count,
         &what,
     )?;
-    Ok((0..count)
-        .map(|i| index_component(strided.element(i), data_type).unwrap_or(u32::MAX))
-        .collect())
+    // One loop per component type, so that none chooses per index.
+    let elements = strided.elements(count);
+    Ok(match data_type {
+        DataType::U8 => elements.map(|b| u32::from(b[0])).collect(),
+        DataType::U16 => elements
+            .map(|b| u32::from(u16::from_le_bytes([b[0], b[1]])))
+            .collect(),
+        _ => elements
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect(),
+    })
 }

@@ -33,6 +33,27 @@ struct Kept {
     colours: bool,
 }
 
+/// One primitive read on its own (so that primitives are read in parallel): its
+/// vertices placed by its transform, and its triangles over them.
+struct Decoded {
+    positions: Vec<Vec3>,
+    normals: Option<Vec<Vec3>>,
+    uvs: Option<Vec<Vec2>>,
+    colours: Option<Vec<Vec3>>,
+    /// Corners into `positions`, wound counter-clockwise; degenerate ones dropped.
+    triangles: Vec<[u32; 3]>,
+    material: u32,
+    degenerate_dropped: usize,
+    morph_targets: bool,
+}
+
+/// What one primitive gives the mesh.
+enum Read {
+    Triangles(Decoded),
+    PointsOrLines,
+    NoPositions,
+}
+
 /// Appends the primitives of `meshes` (each placed by its transform) to `mesh`, and
 /// gives the number of triangles `mesh` has after each. `uv_of` gives the texture
 /// coordinates each material reads; `default_material` is the index of the material
@@ -45,30 +66,72 @@ pub fn append_meshes(
     default_material: u32,
     counts: &mut Counts,
 ) -> Result<Vec<u32>, String> {
+    use rayon::prelude::*;
+    let jobs: Vec<(usize, gltf::Primitive<'_>, &Affine3A)> = meshes
+        .iter()
+        .flat_map(|(m, transform)| m.primitives().map(move |p| (m.index(), p, transform)))
+        .collect();
+    let mut read = jobs
+        .par_iter()
+        .map(|(mesh, primitive, transform)| {
+            read_primitive(primitive, transform, buffers, uv_of, default_material)
+                .map_err(|e| format!("primitive {} of mesh {mesh}: {e}", primitive.index()))
+        })
+        .collect::<Result<Vec<Read>, String>>()?
+        .into_iter();
     let mut kept = Kept::default();
     let mut ends = Vec::with_capacity(meshes.len());
-    for (gltf_mesh, transform) in meshes {
-        for primitive in gltf_mesh.primitives() {
-            let what = format!(
-                "primitive {} of mesh {}",
-                primitive.index(),
-                gltf_mesh.index()
-            );
-            append_primitive(
-                mesh,
-                &primitive,
-                transform,
-                buffers,
-                uv_of,
-                default_material,
-                &mut kept,
-                counts,
-            )
-            .map_err(|e| format!("{what}: {e}"))?;
+    for (gltf_mesh, _) in meshes {
+        for _ in gltf_mesh.primitives() {
+            match read.next().expect("one result per primitive") {
+                Read::Triangles(decoded) => append(mesh, decoded, &mut kept, counts),
+                Read::PointsOrLines => counts.skipped_primitives += 1,
+                Read::NoPositions => counts.no_positions += 1,
+            }
         }
         ends.push(mesh.triangles.len() as u32);
     }
     Ok(ends)
+}
+
+/// Appends one read primitive's vertices and triangles to `mesh`.
+fn append(mesh: &mut TriangleMesh, decoded: Decoded, kept: &mut Kept, counts: &mut Counts) {
+    let offset = mesh.positions.len();
+    let count = decoded.positions.len();
+    mesh.positions.extend(decoded.positions);
+    pad(
+        &mut mesh.normals,
+        &mut kept.normals,
+        offset,
+        count,
+        decoded.normals,
+        Vec3::ZERO,
+    );
+    pad(
+        &mut mesh.uvs,
+        &mut kept.uvs,
+        offset,
+        count,
+        decoded.uvs,
+        Vec2::ZERO,
+    );
+    counts.colours |= decoded.colours.is_some();
+    pad(
+        &mut mesh.colours,
+        &mut kept.colours,
+        offset,
+        count,
+        decoded.colours,
+        Vec3::ONE,
+    );
+    let moved = |t: [u32; 3]| t.map(|i| i + offset as u32);
+    mesh.triangles
+        .extend(decoded.triangles.iter().copied().map(moved));
+    let material = decoded.material;
+    mesh.material
+        .extend(decoded.triangles.iter().map(|_| material));
+    counts.degenerate_dropped += decoded.degenerate_dropped;
+    counts.morph_targets |= decoded.morph_targets;
 }
 
 /// The vertices and triangles `meshes` declare, at most (before any is read), so that
@@ -119,29 +182,24 @@ fn triangles(mode: Mode, indices: &[u32]) -> Vec<[u32; 3]> {
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn append_primitive(
-    mesh: &mut TriangleMesh,
+/// Reads one primitive: its triangles (points and lines skipped), the vertices they
+/// use placed by `transform`, and the attributes its material needs.
+fn read_primitive(
     primitive: &gltf::Primitive<'_>,
     transform: &Affine3A,
     buffers: &[Vec<u8>],
     uv_of: &[UvChoice],
     default_material: u32,
-    kept: &mut Kept,
-    counts: &mut Counts,
-) -> Result<(), String> {
+) -> Result<Read, String> {
     let mode = primitive.mode();
     if !matches!(
         mode,
         Mode::Triangles | Mode::TriangleStrip | Mode::TriangleFan
     ) {
-        counts.skipped_primitives += 1;
-        return Ok(());
+        return Ok(Read::PointsOrLines);
     }
-    counts.morph_targets |= primitive.morph_targets().next().is_some();
     let Some(positions) = primitive.get(&Semantic::Positions) else {
-        counts.no_positions += 1;
-        return Ok(());
+        return Ok(Read::NoPositions);
     };
     if positions.view().is_none() {
         return Err(format!(
@@ -186,107 +244,89 @@ fn append_primitive(
     // Only the vertices the indices use: primitives often share one accessor of all
     // of a mesh's vertices, each using a part of it.
     let (used, indices) = compact(indices, count);
-    let count = used.as_ref().map_or(count, Vec::len);
-    let offset = mesh.positions.len();
-    let points = pick(&used, points);
-    mesh.positions.reserve(points.len());
-    for (i, p) in points.into_iter().enumerate() {
-        let p = transform.transform_point3(Vec3::from(p));
-        if !p.is_finite() {
-            return Err(format!(
-                "vertex {i} is not finite ({} {} {})",
-                p.x, p.y, p.z
-            ));
-        }
-        mesh.positions.push(p);
-    }
+    let positions = placed_points(pick(&used, points), transform)?;
     let normal_matrix: Mat3A = transform.matrix3.inverse().transpose();
-    let normal_values = normals
+    let normals = normals
         .map(|a| read_vectors::<3>(&a, buffers, false))
         .transpose()?
         .map(|values| {
-            pick(&used, values)
-                .into_iter()
-                .map(|n| {
-                    let n = Vec3::from(n);
-                    match n.is_finite() {
-                        true => {
-                            Vec3::from(normal_matrix * glam::Vec3A::from(n)).normalize_or_zero()
-                        }
-                        false => Vec3::ZERO,
-                    }
-                })
-                .collect()
+            let normal = |n: [f32; 3]| match Vec3::from(n) {
+                n if n.is_finite() => Vec3::from(normal_matrix * glam::Vec3A::from(n)),
+                _ => Vec3::ZERO,
+            };
+            let normals = pick(&used, values).into_iter().map(normal);
+            normals.map(Vec3::normalize_or_zero).collect()
         });
-    pad(
-        &mut mesh.normals,
-        &mut kept.normals,
-        offset,
-        count,
-        normal_values,
-        Vec3::ZERO,
-    );
-    let uv_values = uvs
+    let uvs = uvs
         .map(|a| read_vectors::<2>(&a, buffers, false))
         .transpose()?
         .map(|values| {
-            pick(&used, values)
-                .into_iter()
-                .map(|t| {
-                    let t = uv.apply(Vec2::from(t));
-                    if t.is_finite() {
-                        t
-                    } else {
-                        Vec2::ZERO
-                    }
-                })
-                .collect()
+            let apply = |t: [f32; 2]| Some(uv.apply(Vec2::from(t))).filter(|t| t.is_finite());
+            let uvs = pick(&used, values).into_iter().map(apply);
+            uvs.map(Option::unwrap_or_default).collect()
         });
-    pad(
-        &mut mesh.uvs,
-        &mut kept.uvs,
-        offset,
-        count,
-        uv_values,
-        Vec2::ZERO,
-    );
-    let colour_values = colours
+    let colours = colours
         .map(|a| read_vectors::<3>(&a, buffers, true))
         .transpose()?
         .map(|values| {
-            pick(&used, values)
-                .into_iter()
-                .map(|c| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE))
+            let colour = |c: [f32; 3]| Vec3::from(c).clamp(Vec3::ZERO, Vec3::ONE);
+            let colours = pick(&used, values).into_iter().map(colour);
+            colours
                 .map(|c| if c.is_finite() { c } else { Vec3::ONE })
                 .collect()
         });
-    counts.colours |= colour_values.is_some();
-    pad(
-        &mut mesh.colours,
-        &mut kept.colours,
-        offset,
-        count,
-        colour_values,
-        Vec3::ONE,
-    );
-    let material = material.map_or(default_material, |m| m as u32);
     let mirrored = transform.matrix3.determinant() < 0.0;
-    let corners = triangles(mode, &indices);
-    mesh.triangles.reserve(corners.len());
-    mesh.material.reserve(corners.len());
-    for [a, b, c] in corners {
-        let corners = if mirrored { [a, c, b] } else { [a, b, c] };
-        let tri = corners.map(|i| (offset + i as usize) as u32);
-        let [pa, pb, pc] = tri.map(|i| mesh.positions[i as usize]);
-        let doubled_area = (pb - pa).cross(pc - pa).length();
-        if !(doubled_area > 0.0 && doubled_area.is_finite()) {
-            counts.degenerate_dropped += 1;
-            continue;
+    let (triangles, degenerate_dropped) = kept_triangles(mode, &indices, &positions, mirrored);
+    Ok(Read::Triangles(Decoded {
+        positions,
+        normals,
+        uvs,
+        colours,
+        triangles,
+        material: material.map_or(default_material, |m| m as u32),
+        degenerate_dropped,
+        morph_targets: primitive.morph_targets().next().is_some(),
+    }))
+}
+
+/// `points` placed by `transform`; one that is not finite there is an error.
+fn placed_points(points: Vec<[f32; 3]>, transform: &Affine3A) -> Result<Vec<Vec3>, String> {
+    let placed: Vec<Vec3> = points
+        .into_iter()
+        .map(|p| transform.transform_point3(Vec3::from(p)))
+        .collect();
+    match placed.iter().position(|p| !p.is_finite()) {
+        Some(i) => {
+            let p = placed[i];
+            Err(format!(
+                "vertex {i} is not finite ({} {} {})",
+                p.x, p.y, p.z
+            ))
         }
-        mesh.triangles.push(tri);
-        mesh.material.push(material);
+        None => Ok(placed),
     }
-    Ok(())
+}
+
+/// The triangles of `mode` through `indices` that have an area (counter-clockwise:
+/// flipped where `mirrored`), and how many were dropped for having none.
+fn kept_triangles(
+    mode: Mode,
+    indices: &[u32],
+    positions: &[Vec3],
+    mirrored: bool,
+) -> (Vec<[u32; 3]>, usize) {
+    let mut corners = triangles(mode, indices);
+    let before = corners.len();
+    corners.retain_mut(|t| {
+        if mirrored {
+            t.swap(1, 2);
+        }
+        let [pa, pb, pc] = t.map(|i| positions[i as usize]);
+        let doubled_area = (pb - pa).cross(pc - pa).length();
+        doubled_area > 0.0 && doubled_area.is_finite()
+    });
+    let dropped = before - corners.len();
+    (corners, dropped)
 }
 
 /// The vertices `indices` use, in order of first use, and the indices renumbered to
