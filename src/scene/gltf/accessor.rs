@@ -8,7 +8,12 @@
 use gltf::accessor::{DataType, Dimensions};
 use gltf::Accessor;
 
+use rayon::prelude::*;
+
 use crate::limits::check_fits;
+
+/// The fewest values a thread is given: fewer cost more to hand over than to decode.
+pub const PARALLEL_MIN: usize = 4096;
 
 /// The bytes `length` bytes from `offset` in buffer view `view`'s buffer, checked.
 fn view_bytes<'b>(
@@ -128,6 +133,15 @@ impl<'b> Strided<'b> {
     fn elements(&self, count: usize) -> impl Iterator<Item = &'b [u8]> {
         self.bytes[self.offset..].chunks(self.stride).take(count)
     }
+
+    /// [`Self::elements`], split between threads.
+    fn par_elements(&self, count: usize) -> impl IndexedParallelIterator<Item = &'b [u8]> {
+        let bytes = &self.bytes[self.offset..];
+        bytes
+            .par_chunks(self.stride)
+            .take(count)
+            .with_min_len(PARALLEL_MIN)
+    }
 }
 
 /// The values of `accessor`, `N` components each (its type must have `N`, or with
@@ -170,7 +184,7 @@ pub fn read_vectors<const N: usize>(
             match data_type {
                 // Most vertex data: decoded without a choice per component.
                 DataType::F32 => strided
-                    .elements(count)
+                    .par_elements(count)
                     .map(|b| {
                         let mut floats = b[..4 * N].chunks_exact(4);
                         std::array::from_fn(|_| {

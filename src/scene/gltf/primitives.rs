@@ -7,7 +7,9 @@ use glam::{Affine3A, Mat3A, Vec2, Vec3};
 use gltf::mesh::Mode;
 use gltf::Semantic;
 
-use super::accessor::{read_indices, read_vectors};
+use rayon::prelude::*;
+
+use super::accessor::{read_indices, read_vectors, PARALLEL_MIN};
 use super::materials::UvChoice;
 use crate::scene::TriangleMesh;
 
@@ -66,7 +68,6 @@ pub fn append_meshes(
     default_material: u32,
     counts: &mut Counts,
 ) -> Result<Vec<u32>, String> {
-    use rayon::prelude::*;
     let jobs: Vec<(usize, gltf::Primitive<'_>, &Affine3A)> = meshes
         .iter()
         .flat_map(|(m, transform)| m.primitives().map(move |p| (m.index(), p, transform)))
@@ -254,8 +255,10 @@ fn read_primitive(
                 n if n.is_finite() => Vec3::from(normal_matrix * glam::Vec3A::from(n)),
                 _ => Vec3::ZERO,
             };
-            let normals = pick(&used, values).into_iter().map(normal);
-            normals.map(Vec3::normalize_or_zero).collect()
+            let normals = pick(&used, values)
+                .into_par_iter()
+                .with_min_len(PARALLEL_MIN);
+            normals.map(|n| normal(n).normalize_or_zero()).collect()
         });
     let uvs = uvs
         .map(|a| read_vectors::<2>(&a, buffers, false))
@@ -292,7 +295,8 @@ fn read_primitive(
 /// `points` placed by `transform`; one that is not finite there is an error.
 fn placed_points(points: Vec<[f32; 3]>, transform: &Affine3A) -> Result<Vec<Vec3>, String> {
     let placed: Vec<Vec3> = points
-        .into_iter()
+        .into_par_iter()
+        .with_min_len(PARALLEL_MIN)
         .map(|p| transform.transform_point3(Vec3::from(p)))
         .collect();
     match placed.iter().position(|p| !p.is_finite()) {
