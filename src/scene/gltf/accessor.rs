@@ -186,11 +186,11 @@ pub fn read_vectors<const N: usize>(
                 DataType::F32 => strided
                     .par_elements(count)
                     .map(|b| {
-                        let mut floats = b[..4 * N].chunks_exact(4);
-                        std::array::from_fn(|_| {
-                            let bytes = floats.next().unwrap_or(&[0; 4]);
-                            f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]])
-                        })
+                        let mut value = [0.0; N];
+                        for (v, bytes) in value.iter_mut().zip(b[..4 * N].chunks_exact(4)) {
+                            *v = f32::from_le_bytes([bytes[0], bytes[1], bytes[2], bytes[3]]);
+                        }
+                        value
                     })
                     .collect(),
                 _ => (0..count).map(|i| read(strided.element(i))).collect(),
