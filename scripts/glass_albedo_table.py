@@ -95,13 +95,16 @@ def main():
         "//! (η = ior), 1 leaving (η = 1/ior); `(ior − 1)/(ior + 1) = k · IOR_STEP`;",
         f"//! `√α = j / {N_ROUGHNESS - 1}`; `√μ = i / {N_MU - 1}`; each the mean over {N}² visible normals.",
         "",
+        "// Albedos that happen to read like π/4 or 2/π are albedos.",
+        "#![allow(clippy::approx_constant)]",
+        "",
         f"pub(super) const N_MU: usize = {N_MU};",
         f"pub(super) const N_ROUGHNESS: usize = {N_ROUGHNESS};",
         f"pub(super) const N_IOR: usize = {N_IOR};",
         f"pub(super) const IOR_STEP: f32 = {IOR_STEP};",
         "",
         "#[rustfmt::skip]",
-        "pub(super) const CELLS: [[[[f32; N_MU]; N_ROUGHNESS]; N_IOR]; 2] = [",
+        "pub(super) static CELLS: [[[[f32; N_MU]; N_ROUGHNESS]; N_IOR]; 2] = [",
     ]
     for planes in sides:
         lines.append("    [")

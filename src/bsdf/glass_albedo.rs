@@ -32,7 +32,10 @@ pub fn glass_albedo(mu: f32, alpha: f32, eta: f32) -> f32 {
         (&CELLS[1], 1.0 / eta)
     };
     let (k, tk) = node((ior - 1.0) / (ior + 1.0) / IOR_STEP, N_IOR);
-    let (j, tj) = node(alpha.clamp(0.0, 1.0).sqrt() * (N_ROUGHNESS - 1) as f32, N_ROUGHNESS);
+    let (j, tj) = node(
+        alpha.clamp(0.0, 1.0).sqrt() * (N_ROUGHNESS - 1) as f32,
+        N_ROUGHNESS,
+    );
     let (i, ti) = node(mu.clamp(0.0, 1.0).sqrt() * (N_MU - 1) as f32, N_MU);
     let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
     let at_row = |row: &[f32; N_MU]| lerp(row[i], row[i + 1], ti);

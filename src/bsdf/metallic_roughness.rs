@@ -395,9 +395,6 @@ impl Lobe {
         };
         let transmit = self.interface.split_across(r.cos_o, r.cos_i, eta).transmit;
         let glass = self.glass * self.glass_compensation(wo.z, eta);
-        (
-            glass * r.value * transmit,
-            c.glossy * c.refract * r.pdf,
-        )
+        (glass * r.value * transmit, c.glossy * c.refract * r.pdf)
     }
 }
