@@ -2,10 +2,11 @@
 //! `KHR_materials_specular`) against mathematics: the rough glass's draws follow its
 //! `pdf` over the whole sphere, reflection and refraction, from both sides (chi-square);
 //! `pdf` integrates to the draws that yield a direction; `sample` returns exactly `eval`
-//! and `pdf` and the index it crossed; `f(wo, wi)/η_o² = f(wi, wo)/η_i²`; a clear glass
-//! in a white furnace gains nothing and loses only what single scattering loses;
-//! smooth, it is ember's smooth glass, and nearly smooth it splits light by Fresnel's
-//! equations. In scenes: a clear glass ball under a white sky looks white, and hostile
+//! and `pdf` and the index it crossed; `f(wo, wi) E(wo)/η_o² = f(wi, wo) E(wi)/η_i²`
+//! (reciprocal up to the energy compensation's scale `1/E`); a clear glass in a white
+//! furnace keeps all the light, at any roughness, from either side; smooth, it is
+//! ember's smooth glass, and nearly smooth it splits light by Fresnel's equations. In
+//! scenes: a clear glass ball under a white sky looks white, rough too, and hostile
 //! values are one error line.
 
 mod common;
@@ -21,7 +22,7 @@ use common::gltf::{floor_quad, png_data_uri, refused, GltfBuilder};
 use common::stats::SampleSums;
 use common::{build, quad, with_embree, Built};
 use ember::accel::{Accel, Ray};
-use ember::bsdf::{fresnel_dielectric, Bsdf, MetallicRoughness};
+use ember::bsdf::{fresnel_dielectric, glass_albedo, Bsdf, MetallicRoughness};
 use ember::image::srgb_to_linear;
 use ember::integrator::{IntegratorKind, PathTracer, RayCount};
 use ember::light::LightSamplerKind;
@@ -158,7 +159,8 @@ fn sample_agrees_exactly_with_eval_pdf_and_the_index_crossed() {
                     assert_eq!(s.eta, bsdf.eta(wo, s.wi), "{name}");
                     crossed += usize::from(s.wi.dot(n) * wo.dot(n) < 0.0);
                 }
-                // Rough glass seen from inside loses up to half its draws (see the furnace).
+                // Rough glass seen from inside sends up to half its draws into its own
+                // surface.
                 assert!(kept > 500, "{name}, θo {theta}°, side {side}: {kept} kept");
             }
         }
@@ -166,25 +168,40 @@ fn sample_agrees_exactly_with_eval_pdf_and_the_index_crossed() {
     }
 }
 
-/// Generalised reciprocity in the radiance convention: `f(wo, wi)/η_o² = f(wi, wo)/η_i²`,
-/// `η` the index on each direction's side, over random pairs on the whole sphere; at
-/// least a thousand of them refracted and non-zero.
+/// The clear glass's single-scattering albedo for light arriving along `w` (see
+/// [`glass_albedo`]): the energy compensation divides the glass's lobe by it.
+fn single_scattering_albedo(w: Vec3, n: Vec3, m: &MetallicRoughness) -> f32 {
+    let eta = if w.dot(n) > 0.0 { m.ior } else { 1.0 / m.ior };
+    glass_albedo(w.dot(n).abs(), m.alpha, eta)
+}
+
+/// Generalised reciprocity in the radiance convention, up to the energy compensation
+/// (Turquin's and Cycles' scale `1/E(wo)`, which is not reciprocal):
+/// `f(wo, wi) E(wo)/η_o² = f(wi, wo) E(wi)/η_i²`, `η` the index on each direction's side,
+/// over random pairs on the whole sphere; at least a thousand of them refracted and
+/// non-zero. Where the glass is mixed with the base or the metal, whose lobes are not
+/// scaled, refracted pairs only (only the glass refracts).
 #[test]
-fn the_btdf_is_reciprocal_up_to_the_squared_indices() {
+fn the_btdf_is_reciprocal_up_to_the_squared_indices_and_compensation() {
     let n = tilted_normal();
     let mut rng = Rng::seeded(42);
     for ((name, bsdf), (_, m)) in lobes(n).into_iter().zip(materials()) {
         let (mut crossed, mut worst) = (0, 0.0f32);
+        let pure = m.transmission >= 1.0 && m.metallic <= 0.0;
         for _ in 0..20_000 {
             let a = uniform_sphere(rng.f32(), rng.f32());
             let b = uniform_sphere(rng.f32(), rng.f32());
             let (ca, cb) = (a.dot(n).abs(), b.dot(n).abs());
-            if ca < 1e-3 || cb < 1e-3 {
+            if ca < 1e-3 || cb < 1e-3 || !(pure || a.dot(n) * b.dot(n) < 0.0) {
                 continue;
             }
             let (ia, ib) = (index_of_side(a, n, m.ior), index_of_side(b, n, m.ior));
-            let f_ab = bsdf.eval(a, b) / cb / (ia * ia);
-            let f_ba = bsdf.eval(b, a) / ca / (ib * ib);
+            let (ea, eb) = (
+                single_scattering_albedo(a, n, &m),
+                single_scattering_albedo(b, n, &m),
+            );
+            let f_ab = bsdf.eval(a, b) * ea / cb / (ia * ia);
+            let f_ba = bsdf.eval(b, a) * eb / ca / (ib * ib);
             let scale = f_ab.max_element().max(f_ba.max_element());
             // f32 rounding: `1 − F` cancels where a facet is seen at a grazing angle.
             let error = (f_ab - f_ba).abs().max_element();
@@ -203,23 +220,13 @@ fn the_btdf_is_reciprocal_up_to_the_squared_indices() {
 }
 
 /// White furnace: a clear glass (base colour white) reflects and transmits together
-/// no more than it receives, from either side at any angle, and loses only what single
-/// scattering loses: the light whose one scattering sends it into the surface or out of
-/// its facets' view (measured here, and by a separate quadrature of Walter et al.'s
-/// formulas). Within 60° of the normal it keeps at least `kept` of the light at each
-/// roughness; from inside, beyond the critical angle, most facets reflect whole, and at
-/// roughness 1 more than half the light scatters back into the glass's own surface.
+/// all the light it receives, within 2%, at every roughness and index, from either side
+/// at any angle up to 80° (single scattering alone keeps as little as 30% at roughness
+/// 1), and at a grazing 89° still no more than it receives.
 #[test]
-fn a_clear_glass_keeps_what_single_scattering_keeps() {
+fn a_clear_glass_in_a_white_furnace_keeps_all_the_light() {
     let n = tilted_normal();
-    let kept = [
-        (0.1f32, 0.99f32),
-        (0.3, 0.95),
-        (0.5, 0.78),
-        (0.7, 0.6),
-        (1.0, 0.3),
-    ];
-    for (roughness, least) in kept {
+    for roughness in [0.1f32, 0.3, 0.5, 0.7, 1.0] {
         for ior in [1.33f32, 1.5, 2.0] {
             let bsdf = Bsdf::metallic_roughness(&glass(Vec3::ONE, roughness, ior), n, n);
             for theta in [0.0f32, 30.0, 60.0, 80.0, 89.0] {
@@ -233,8 +240,8 @@ fn a_clear_glass_keeps_what_single_scattering_keeps() {
                         mean <= 1.0 + 5.0 * sigma + 2e-3,
                         "{label}: {mean} ± {sigma}"
                     );
-                    if theta <= 60.0 {
-                        assert!(mean >= least - 5.0 * sigma, "{label}: {mean} ± {sigma}");
+                    if theta <= 80.0 {
+                        assert!(mean >= 0.98 - 5.0 * sigma, "{label}: {mean} ± {sigma}");
                     }
                 }
             }
@@ -334,15 +341,17 @@ fn walter(n: Vec3, wo: Vec3, wi: Vec3, alpha: f64, ior: f64) -> f64 {
     (1.0 - fresnel(oh)) * d(h.dot(n)) * masking * oh * -ih / (cos_o * denominator * denominator)
 }
 
-/// A clear glass's `eval` is Walter et al.'s BSDF: over random pairs on the sphere,
-/// reflected and refracted, from both sides, for several roughnesses and indices.
+/// A clear glass's `eval` is Walter et al.'s BSDF divided by the single-scattering albedo
+/// of `wo` (the energy compensation): over random pairs on the sphere, reflected and
+/// refracted, from both sides, for several roughnesses and indices.
 #[test]
 fn a_clear_glass_evaluates_walters_formulas() {
     let n = tilted_normal();
     let mut rng = Rng::seeded(46);
     for (roughness, ior) in [(0.3f32, 1.5f32), (0.6, 1.33), (1.0, 2.4), (0.15, 1.7)] {
         let alpha = roughness * roughness;
-        let bsdf = Bsdf::metallic_roughness(&glass(Vec3::ONE, roughness, ior), n, n);
+        let m = glass(Vec3::ONE, roughness, ior);
+        let bsdf = Bsdf::metallic_roughness(&m, n, n);
         let (mut reflected, mut refracted) = (0, 0);
         for _ in 0..50_000 {
             let wo = uniform_sphere(rng.f32(), rng.f32());
@@ -351,10 +360,13 @@ fn a_clear_glass_evaluates_walters_formulas() {
                 continue;
             }
             let want = walter(n, wo, wi, f64::from(alpha), f64::from(ior));
-            let got = f64::from(bsdf.eval(wo, wi).x);
+            // The compensation taken out again, so that f32's rounding is compared at
+            // the scale it was made at.
+            let single = f64::from(single_scattering_albedo(wo, n, &m));
+            let got = f64::from(bsdf.eval(wo, wi).x) * single;
             assert!(
                 (got - want).abs() <= 1e-3 * want + 1e-6,
-                "roughness {roughness}, ior {ior}: eval({wo}, {wi}) = {got}, Walter {want}"
+                "roughness {roughness}, ior {ior}: eval({wo}, {wi}) × E = {got}, Walter {want}"
             );
             if want > 1e-3 {
                 let crossed = wo.dot(n) * wi.dot(n) < 0.0;
@@ -508,10 +520,11 @@ fn radiance(built: &Built, kind: IntegratorKind, ray: Ray, n: u64, seed: u64) ->
 
 /// A glass ball in a white world (a white sky, nothing else) is white: light is only
 /// reflected and refracted, never absorbed. Smooth, exactly (all of it reaches the sky
-/// in the end); rough, less what single scattering loses at each of its crossings.
+/// in the end); rough, within 2% (the compensation keeps the light that single
+/// scattering would lose at each of its crossings).
 #[test]
 fn a_clear_glass_ball_under_a_white_sky_is_white() {
-    for (roughness, least) in [(0.0f32, 1.0f64), (0.3, 0.95)] {
+    for (roughness, least) in [(0.0f32, 1.0f64), (0.3, 0.98), (0.5, 0.98)] {
         let mut gltf = GltfBuilder::default();
         with_glass_extensions(&mut gltf);
         let material = gltf.material(clear_glass_json(roughness, 1.5));

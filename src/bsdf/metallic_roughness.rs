@@ -43,8 +43,12 @@
 //! exactly the missing `1 − E(μo)`, coloured by `F_ms = F_avg² E_avg / (1 − F_avg (1 −
 //! E_avg))` for each layer's hemispherical mean Fresnel `F_avg` (Schlick's: `f0 + (1 −
 //! f0)/21`). The albedos `E` come from a table ([`ggx_albedo`](super::ggx_albedo)). The
-//! glass has no such lobe (its albedo depends on the index too): a clear glass keeps
-//! less than all the light at high roughness (tests/transmission.rs states how much).
+//! glass is compensated instead as Cycles' Principled BSDF compensates it, by Turquin's
+//! energy scaling: its reflection and refraction are divided by the single-scattering
+//! albedo `E(μo, α, η)` of the clear glass ([`glass_albedo`](super::glass_albedo), for
+//! the side `wo` is on), so that a clear glass keeps all the light from either side and
+//! its density stays single scattering's. The scale depends on `wo` alone, so the glass
+//! is reciprocal only up to `E(μi)/E(μo)` (as Cycles' is).
 //!
 //! Sampling picks GGX's visible normals or a cosine direction (for the base and the
 //! compensation lobe) with a probability from their albedos at `wo`, so the density is
@@ -57,6 +61,7 @@ use std::f32::consts::FRAC_1_PI;
 
 use super::dielectric::{normal_reflectance, reflects_totally, refract, Interface};
 use super::ggx_albedo::{average_albedo, directional_albedo, Albedo};
+use super::glass_albedo::glass_albedo;
 use super::{reflect, Ggx, DELTA_ALPHA};
 use crate::color::luminance;
 use crate::sampling::{choose_second, cosine_hemisphere};
@@ -126,6 +131,10 @@ impl MetallicRoughness {
 /// The least index the rough glass refracts with: nearer 1 its BTDF narrows to a
 /// straight pass-through (at 1, a delta), which no density could follow.
 const MIN_ROUGH_IOR: f32 = 1.01;
+
+/// The least single-scattering albedo the glass is scaled up from: keeps the scale
+/// finite where a table cell at grazing incidence is near 0.
+const MIN_GLASS_ALBEDO: f32 = 0.05;
 
 /// Schlick's Fresnel `f0 + (1 − f0) (1 − cos)⁵`.
 #[inline]
@@ -250,6 +259,15 @@ impl Lobe {
         }
     }
 
+    /// Turquin's energy scaling of the glass for `wo` at `cos θo = mu` (`eta` as for
+    /// [`choice`](Self::choice)): `1/E` of the clear glass of the same roughness and
+    /// index, whatever its tint, so that a clear glass keeps all the light and a tinted
+    /// one loses only what its tint absorbs.
+    #[inline]
+    fn glass_compensation(&self, mu: f32, eta: f32) -> f32 {
+        1.0 / glass_albedo(mu, self.ggx.alpha(), eta).max(MIN_GLASS_ALBEDO)
+    }
+
     /// What the dielectric's specular layer (compensation included) reflects of light
     /// arriving where GGX's albedos are `a`, in its largest channel.
     #[inline]
@@ -353,7 +371,8 @@ impl Lobe {
         let mut value = (dielectric * self.opaque).lerp(metal, self.metallic)
             + self.multiple * (lost * self.multiple_norm * wi.z);
         if self.glass > 0.0 {
-            value += self.glass * specular * self.interface.split(v_h, eta).reflect;
+            let glass = self.glass * self.glass_compensation(wo.z, eta);
+            value += glass * specular * self.interface.split(v_h, eta).reflect;
         }
         // Refractions through facets that reflect whole are reflections too.
         let reflecting = match c.refract > 0.0 && reflects_totally(v_h, eta) {
@@ -375,9 +394,7 @@ impl Lobe {
             return (Vec3::ZERO, 0.0);
         };
         let transmit = self.interface.split_across(r.cos_o, r.cos_i, eta).transmit;
-        (
-            self.glass * r.value * transmit,
-            c.glossy * c.refract * r.pdf,
-        )
+        let glass = self.glass * self.glass_compensation(wo.z, eta);
+        (glass * r.value * transmit, c.glossy * c.refract * r.pdf)
     }
 }

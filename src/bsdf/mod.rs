@@ -29,11 +29,14 @@
 mod dielectric;
 mod ggx_albedo;
 mod ggx_albedo_table;
+mod glass_albedo;
+mod glass_albedo_table;
 mod metallic_roughness;
 mod microfacet;
 
 pub use dielectric::{fresnel_dielectric, refract, Interface, Split};
 pub use ggx_albedo::{average_albedo, directional_albedo, Albedo};
+pub use glass_albedo::glass_albedo;
 pub use metallic_roughness::{schlick, MetallicRoughness};
 pub use microfacet::{reflect, Ggx, Refraction};
 

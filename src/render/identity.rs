@@ -18,7 +18,7 @@ use crate::scene::{
 /// samplers, the integrators, the materials. Bump it whenever a change alters any
 /// sample's value, so that old checkpoints and shards are not mixed with new samples.
 /// CHANGELOG.md names each version and what it changed.
-pub const ALGORITHM_VERSION: u32 = 10;
+pub const ALGORITHM_VERSION: u32 = 12;
 
 /// The guide's version, by which CHANGELOG.md names it ("The guide (`sd-tree N`)").
 pub const GUIDE_VERSION: &str = "sd-tree 13";
