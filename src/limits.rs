@@ -1,6 +1,9 @@
 //! How much memory the machine can give ember, so that work which cannot fit is refused
 //! up front with a message naming the sizes, instead of dying half-way in the allocator.
 
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
 /// The largest image side `ember render` accepts (`--width`, `--height`), and so the
 /// largest a shard or checkpoint may claim.
 pub const MAX_IMAGE_SIDE: u32 = 16384;
@@ -25,6 +28,22 @@ pub fn available_memory() -> Option<u64> {
     {
         return Some(limit);
     }
+    // Loaders check before each large allocation, hundreds of times in a scene of many
+    // meshes: the files are read again only when the last reading is a moment old.
+    static LAST: Mutex<Option<(Instant, Option<u64>)>> = Mutex::new(None);
+    let mut last = LAST.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
+    match *last {
+        Some((read, available)) if read.elapsed() < Duration::from_millis(50) => available,
+        _ => {
+            let available = machine_and_cgroup_memory();
+            *last = Some((Instant::now(), available));
+            available
+        }
+    }
+}
+
+/// The smaller of `MemAvailable` and the memory cgroups' headroom, read now.
+fn machine_and_cgroup_memory() -> Option<u64> {
     let machine = std::fs::read_to_string("/proc/meminfo")
         .ok()
         .and_then(|meminfo| parse_meminfo_available(&meminfo));

@@ -72,14 +72,14 @@ pub fn append_meshes(
         .iter()
         .flat_map(|(m, transform)| m.primitives().map(move |p| (m.index(), p, transform)))
         .collect();
-    let mut read = jobs
+    let read = jobs
         .par_iter()
         .map(|(mesh, primitive, transform)| {
             read_primitive(primitive, transform, buffers, uv_of, default_material)
                 .map_err(|e| format!("primitive {} of mesh {mesh}: {e}", primitive.index()))
         })
-        .collect::<Result<Vec<Read>, String>>()?
-        .into_iter();
+        .collect::<Result<Vec<Read>, String>>()?;
+    let mut read = read.into_iter();
     let mut kept = Kept::default();
     let mut ends = Vec::with_capacity(meshes.len());
     for (gltf_mesh, _) in meshes {
@@ -99,7 +99,7 @@ pub fn append_meshes(
 fn append(mesh: &mut TriangleMesh, decoded: Decoded, kept: &mut Kept, counts: &mut Counts) {
     let offset = mesh.positions.len();
     let count = decoded.positions.len();
-    mesh.positions.extend(decoded.positions);
+    extend(&mut mesh.positions, decoded.positions);
     pad(
         &mut mesh.normals,
         &mut kept.normals,
@@ -125,12 +125,16 @@ fn append(mesh: &mut TriangleMesh, decoded: Decoded, kept: &mut Kept, counts: &m
         decoded.colours,
         Vec3::ONE,
     );
-    let moved = |t: [u32; 3]| t.map(|i| i + offset as u32);
-    mesh.triangles
-        .extend(decoded.triangles.iter().copied().map(moved));
     let material = decoded.material;
     mesh.material
         .extend(decoded.triangles.iter().map(|_| material));
+    let moved = |t: [u32; 3]| t.map(|i| i + offset as u32);
+    match offset {
+        0 => extend(&mut mesh.triangles, decoded.triangles),
+        _ => mesh
+            .triangles
+            .extend(decoded.triangles.into_iter().map(moved)),
+    }
     counts.degenerate_dropped += decoded.degenerate_dropped;
     counts.morph_targets |= decoded.morph_targets;
 }
@@ -363,6 +367,16 @@ fn pick<T: Copy>(used: &Option<Vec<u32>>, values: Vec<T>) -> Vec<T> {
     }
 }
 
+/// `values` after `list`: moved whole into an empty list (the first primitive, often
+/// the only one), as a copy into fresh memory would cost more than the reading.
+fn extend<T>(list: &mut Vec<T>, values: Vec<T>) {
+    if list.is_empty() {
+        *list = values;
+    } else {
+        list.extend(values);
+    }
+}
+
 /// Appends a primitive's `values` of one attribute (or, where it has none but others
 /// had, `count` fill values), once any primitive has had that attribute.
 fn pad<T: Copy>(
@@ -379,7 +393,7 @@ fn pad<T: Copy>(
                 list.resize(offset, fill);
                 *any = true;
             }
-            list.extend(values);
+            extend(list, values);
         }
         None if *any => list.resize(offset + count, fill),
         None => {}
