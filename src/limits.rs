@@ -56,41 +56,36 @@ fn machine_and_cgroup_memory() -> Option<u64> {
     }
 }
 
-/// The least `limit - usage` over the memory cgroup of `/proc/self/cgroup` text and its
+/// The least `limit - used` over the memory cgroup of `/proc/self/cgroup` text and its
 /// ancestors (a parent's limit binds its children too), under the cgroup mount `root`:
-/// cgroup v2's `memory.max`/`memory.current`, or v1's `memory.limit_in_bytes`/
-/// `memory.usage_in_bytes`. `None` when no level sets a limit.
+/// cgroup v2's `memory.max`, or v1's `memory.limit_in_bytes`. `used` is the anonymous
+/// memory of `memory.stat` (v2's `anon`, v1's `total_rss`), not the whole usage: that
+/// counts the page cache too, which after a build can fill the limit and is given back
+/// on demand. `None` when no level sets a limit.
 pub fn cgroup_headroom(proc_cgroup: &str, root: &std::path::Path) -> Option<u64> {
-    let (dir, limit_file, usage_file) = proc_cgroup.lines().find_map(|line| {
+    let (dir, limit_file, used_key) = proc_cgroup.lines().find_map(|line| {
         let mut fields = line.splitn(3, ':');
         let (_, controllers, path) = (fields.next()?, fields.next()?, fields.next()?);
+        let path = path.trim_start_matches('/');
         match controllers {
-            "" => Some((
-                root.join(path.trim_start_matches('/')),
-                "memory.max",
-                "memory.current",
-            )),
+            "" => Some((root.join(path), "memory.max", "anon ")),
             c if c.split(',').any(|c| c == "memory") => Some((
-                root.join("memory").join(path.trim_start_matches('/')),
+                root.join("memory").join(path),
                 "memory.limit_in_bytes",
-                "memory.usage_in_bytes",
+                "total_rss ",
             )),
             _ => None,
         }
     })?;
-    let read = |dir: &std::path::Path, file: &str| -> Option<u64> {
-        std::fs::read_to_string(dir.join(file))
-            .ok()?
-            .trim()
-            .parse()
-            .ok()
-    };
+    let read = |level: &std::path::Path, file: &str| std::fs::read_to_string(level.join(file));
     // `max` (v2) does not parse and the v1 "unlimited" is near 2^63: neither is a limit.
     dir.ancestors()
         .take_while(|level| level.starts_with(root))
         .filter_map(|level| {
-            let limit = read(level, limit_file).filter(|&l| l < 1 << 60)?;
-            Some(limit.saturating_sub(read(level, usage_file).unwrap_or(0)))
+            let limit: u64 = read(level, limit_file).ok()?.trim().parse().ok()?;
+            let stat = read(level, "memory.stat").unwrap_or_default();
+            let used = proc_field(&stat, used_key).map_or(0, |(bytes, _)| bytes);
+            (limit < 1 << 60).then(|| limit.saturating_sub(used))
         })
         .min()
 }
@@ -197,18 +192,20 @@ mod tests {
             std::fs::create_dir_all(dir).unwrap();
             std::fs::write(dir.join(file), text).unwrap();
         };
-        // v2: the parent's 1000-byte limit (100 used) binds the unlimited child.
+        // v2: the parent's 1000-byte limit (100 anonymous, 800 of page cache) binds the
+        // unlimited child.
         let (parent, child) = (root.join("ci"), root.join("ci/job"));
         write(&parent, "memory.max", "1000\n");
-        write(&parent, "memory.current", "100\n");
+        write(&parent, "memory.stat", "anon 100\nfile 800\nanon_thp 0\n");
         write(&child, "memory.max", "max\n");
-        write(&child, "memory.current", "50\n");
+        write(&child, "memory.stat", "anon 50\nfile 10\n");
         assert_eq!(cgroup_headroom("0::/ci/job\n", &root), Some(900));
         assert_eq!(cgroup_headroom("0::/elsewhere\n", &root), None);
         // v1: the memory controller's own hierarchy; the "unlimited" value is no limit.
         let v1 = root.join("memory/runner");
         write(&v1, "memory.limit_in_bytes", "4096");
-        write(&v1, "memory.usage_in_bytes", "1024");
+        let stat = "cache 3000\nrss 1000\nrss_huge 0\ntotal_cache 3000\ntotal_rss 1024\n";
+        write(&v1, "memory.stat", stat);
         write(
             &root.join("memory"),
             "memory.limit_in_bytes",
