@@ -62,14 +62,18 @@ fn component(bytes: &[u8], k: usize, data_type: DataType, normalized: bool) -> f
     }
 }
 
-/// An unsigned integer component (an index), exactly.
-fn index_component(bytes: &[u8], data_type: DataType) -> Option<u32> {
-    let b = bytes;
+/// The first `count` elements of `strided` as unsigned integers (indices) of
+/// `data_type`, exactly: one loop per component type, so that none chooses per index.
+fn unsigned_values(strided: &Strided<'_>, count: usize, data_type: DataType) -> Vec<u32> {
+    let elements = strided.elements(count);
     match data_type {
-        DataType::U8 => Some(u32::from(b[0])),
-        DataType::U16 => Some(u32::from(u16::from_le_bytes([b[0], b[1]]))),
-        DataType::U32 => Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]])),
-        _ => None,
+        DataType::U8 => elements.map(|b| u32::from(b[0])).collect(),
+        DataType::U16 => elements
+            .map(|b| u32::from(u16::from_le_bytes([b[0], b[1]])))
+            .collect(),
+        _ => elements
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect(),
     }
 }
 
@@ -235,15 +239,11 @@ fn read_sparse<'b>(
         &format!("{what}'s sparse indices"),
     )?;
     check_fits("sparse indices", (n as u64).saturating_mul(4))?;
-    let mut list = Vec::with_capacity(n);
-    for k in 0..n {
-        let i = index_component(strided.element(k), index_type).unwrap_or(u32::MAX);
-        if i as usize >= count {
-            return Err(format!(
-                "{what}: sparse index {i} is out of range ({count} elements)"
-            ));
-        }
-        list.push(i);
+    let list = unsigned_values(&strided, n, index_type);
+    if let Some(i) = list.iter().find(|&&i| i as usize >= count) {
+        return Err(format!(
+            "{what}: sparse index {i} is out of range ({count} elements)"
+        ));
     }
     let values = sparse.values();
     let view = values.view();
@@ -291,15 +291,5 @@ pub fn read_indices(accessor: &Accessor<'_>, buffers: &[Vec<u8>]) -> Result<Vec<
         count,
         &what,
     )?;
-    // One loop per component type, so that none chooses per index.
-    let elements = strided.elements(count);
-    Ok(match data_type {
-        DataType::U8 => elements.map(|b| u32::from(b[0])).collect(),
-        DataType::U16 => elements
-            .map(|b| u32::from(u16::from_le_bytes([b[0], b[1]])))
-            .collect(),
-        _ => elements
-            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect(),
-    })
+    Ok(unsigned_values(&strided, count, data_type))
 }
