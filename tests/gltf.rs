@@ -668,6 +668,17 @@ fn hostile_files_are_one_error_line() {
         all_huge.to_gltf().as_bytes(),
         "1000000000 elements reach byte",
     );
+    let mut sparse = valid();
+    let sparse_indices = sparse.view(&99u32.to_le_bytes());
+    let sparse_values = sparse.view(&[0.5f32, 0.2, 1.0].map(f32::to_le_bytes).concat());
+    sparse.json["accessors"][0]["sparse"] = json!({"count": 1,
+        "indices": {"bufferView": sparse_indices, "componentType": 5125},
+        "values": {"bufferView": sparse_values}});
+    refused(
+        "sparse.gltf",
+        sparse.to_gltf().as_bytes(),
+        "sparse index 99 is out of range",
+    );
     let mut out_of_range = valid();
     let bad = out_of_range.indices(&[0, 1, 99]);
     out_of_range.json["meshes"][0]["primitives"][0]["indices"] = json!(bad);
